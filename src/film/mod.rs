@@ -1,0 +1,226 @@
+//! The film: per-pixel sums of the XYZ estimate (and of Y², for error
+//! estimates) plus spectral buckets, each pixel with its own sample count so
+//! an interrupted render is still an unbiased image.
+
+pub mod output;
+
+use glam::{DVec3, Vec3};
+
+use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths};
+
+/// Equal-width wavelength buckets over [min, max] nm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpectralLayout {
+    pub min: f32,
+    pub max: f32,
+    pub count: u32,
+}
+
+impl SpectralLayout {
+    pub fn width(&self) -> f32 {
+        (self.max - self.min) / self.count as f32
+    }
+
+    /// Centre wavelength of bucket `i`.
+    pub fn centre(&self, i: u32) -> f32 {
+        self.min + (i as f32 + 0.5) * self.width()
+    }
+
+    pub fn bucket(&self, lambda: f32) -> Option<usize> {
+        if !(lambda >= self.min && lambda < self.max) {
+            return None;
+        }
+        Some((((lambda - self.min) / self.width()) as usize).min(self.count as usize - 1))
+    }
+}
+
+/// Running sums for one pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSums {
+    pub xyz: DVec3,
+    pub y_squared: f64,
+    pub samples: u64,
+}
+
+/// A rectangle of the film being rendered by one task.
+pub struct FilmTile {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<PixelSums>,
+    /// `pixels.len() × layout.count` sums of spectral radiance per nm.
+    pub buckets: Vec<f32>,
+    layout: SpectralLayout,
+}
+
+impl FilmTile {
+    pub fn new(x0: u32, y0: u32, width: u32, height: u32, layout: SpectralLayout) -> Self {
+        let n = (width * height) as usize;
+        Self {
+            x0,
+            y0,
+            width,
+            height,
+            pixels: vec![PixelSums::default(); n],
+            buckets: vec![0.0; n * layout.count as usize],
+            layout,
+        }
+    }
+
+    /// Adds one sample's radiance to the pixel at film position (x, y).
+    /// Terminated wavelengths (pdf 0) contribute nothing.
+    pub fn add_sample(&mut self, x: u32, y: u32, l: SampledSpectrum, wl: &SampledWavelengths) {
+        let i = ((y - self.y0) * self.width + (x - self.x0)) as usize;
+        let xyz = cie::sampled_to_xyz(l, wl).as_dvec3();
+        let px = &mut self.pixels[i];
+        px.xyz += xyz;
+        px.y_squared += xyz.y * xyz.y;
+        px.samples += 1;
+        let n = self.layout.count as usize;
+        let per_nm = 1.0 / (4.0 * self.layout.width());
+        for k in 0..4 {
+            if wl.pdf[k] > 0.0 {
+                if let Some(b) = self.layout.bucket(wl.lambda[k]) {
+                    self.buckets[i * n + b] += l[k] / wl.pdf[k] * per_nm;
+                }
+            }
+        }
+    }
+
+    /// Counts a sample that was dropped (non-finite): it adds zero.
+    pub fn add_empty_sample(&mut self, x: u32, y: u32) {
+        let i = ((y - self.y0) * self.width + (x - self.x0)) as usize;
+        self.pixels[i].samples += 1;
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub layout: SpectralLayout,
+    pixels: Vec<PixelSums>,
+    buckets: Vec<f32>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32, layout: SpectralLayout) -> Self {
+        let n = (width * height) as usize;
+        Self {
+            width,
+            height,
+            layout,
+            pixels: vec![PixelSums::default(); n],
+            buckets: vec![0.0; n * layout.count as usize],
+        }
+    }
+
+    pub fn add_tile(&mut self, tile: &FilmTile) {
+        let n = self.layout.count as usize;
+        for ty in 0..tile.height {
+            for tx in 0..tile.width {
+                let src = (ty * tile.width + tx) as usize;
+                let dst = ((tile.y0 + ty) * self.width + tile.x0 + tx) as usize;
+                let (a, b) = (&mut self.pixels[dst], &tile.pixels[src]);
+                a.xyz += b.xyz;
+                a.y_squared += b.y_squared;
+                a.samples += b.samples;
+                for k in 0..n {
+                    self.buckets[dst * n + k] += tile.buckets[src * n + k];
+                }
+            }
+        }
+    }
+
+    pub fn sums(&self, x: u32, y: u32) -> &PixelSums {
+        &self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Mean XYZ of a pixel (zero if it has no samples).
+    pub fn xyz(&self, x: u32, y: u32) -> Vec3 {
+        let p = self.sums(x, y);
+        if p.samples == 0 {
+            return Vec3::ZERO;
+        }
+        (p.xyz / p.samples as f64).as_vec3()
+    }
+
+    /// Linear sRGB of every pixel, row-major from the top left.
+    pub fn linear_srgb(&self) -> Vec<Vec3> {
+        (0..self.height)
+            .flat_map(|y| (0..self.width).map(move |x| (x, y)))
+            .map(|(x, y)| cie::xyz_to_linear_srgb(self.xyz(x, y)))
+            .collect()
+    }
+
+    /// Mean spectral radiance (per nm) of each bucket of a pixel.
+    pub fn spectrum(&self, x: u32, y: u32) -> Vec<f32> {
+        let n = self.layout.count as usize;
+        let i = (y * self.width + x) as usize;
+        let s = self.pixels[i].samples.max(1) as f32;
+        self.buckets[i * n..(i + 1) * n]
+            .iter()
+            .map(|v| v / s)
+            .collect()
+    }
+
+    /// Mean luminance Y of a pixel and the variance of that mean, from the
+    /// sample variance of Y.
+    pub fn luminance_and_variance(&self, x: u32, y: u32) -> (f64, f64) {
+        let p = self.sums(x, y);
+        let n = p.samples as f64;
+        if n < 2.0 {
+            return (p.xyz.y / n.max(1.0), f64::INFINITY);
+        }
+        let mean = p.xyz.y / n;
+        let var = ((p.y_squared / n - mean * mean) * n / (n - 1.0)).max(0.0);
+        (mean, var / n)
+    }
+
+    /// Fewest samples any pixel has.
+    pub fn min_samples(&self) -> u64 {
+        self.pixels.iter().map(|p| p.samples).min().unwrap_or(0)
+    }
+
+    pub fn total_samples(&self) -> u64 {
+        self.pixels.iter().map(|p| p.samples).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn buckets_cover_the_range() {
+        let l = SpectralLayout {
+            min: 380.0,
+            max: 780.0,
+            count: 40,
+        };
+        assert_eq!(l.width(), 10.0);
+        assert_eq!(l.centre(0), 385.0);
+        assert_eq!(l.bucket(380.0), Some(0));
+        assert_eq!(l.bucket(779.99), Some(39));
+        assert_eq!(l.bucket(780.0), None);
+        assert_eq!(l.bucket(379.0), None);
+    }
+
+    #[test]
+    fn terminated_wavelengths_do_not_reach_the_film() {
+        let layout = SpectralLayout {
+            min: 360.0,
+            max: 830.0,
+            count: 47,
+        };
+        let mut tile = FilmTile::new(0, 0, 1, 1, layout);
+        let mut wl = SampledWavelengths::sample_visible(0.4);
+        wl.terminate_secondary();
+        tile.add_sample(0, 0, SampledSpectrum::ONE, &wl);
+        let nonzero = tile.buckets.iter().filter(|&&v| v != 0.0).count();
+        assert_eq!(nonzero, 1);
+        let b = layout.bucket(wl.lambda.x).unwrap();
+        assert!((tile.buckets[b] - 1.0 / wl.pdf.x / 4.0 / 10.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,118 @@
+//! Materials and the BSDFs they produce at a hit. Dispatch is an enum: the
+//! set of materials is closed and the hot path avoids virtual calls.
+
+mod diffuse;
+
+use glam::Vec3;
+
+pub use diffuse::DiffuseBsdf;
+
+use crate::geometry::Frame;
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    /// Lambertian reflection.
+    Diffuse { reflectance: Spectrum },
+}
+
+/// A BSDF sample: direction, value, density (solid angle).
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    pub f: SampledSpectrum,
+    pub pdf: f32,
+    /// A Dirac delta lobe: no light sampling or MIS applies to it.
+    pub specular: bool,
+}
+
+/// The BSDF at one hit, for one set of wavelengths, in world space.
+#[derive(Clone, Copy, Debug)]
+pub enum Bsdf {
+    Diffuse(DiffuseBsdf),
+}
+
+/// Geometry of the hit a BSDF is built for.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingGeometry {
+    /// Geometric normal (unit, from the triangle's winding).
+    pub ng: Vec3,
+    /// Shading normal (unit; interpolated vertex normals, or `ng`).
+    pub ns: Vec3,
+    /// Direction towards where the path came from (unit).
+    pub wo: Vec3,
+}
+
+impl Material {
+    pub fn bsdf(&self, geom: &ShadingGeometry, wl: &SampledWavelengths) -> Bsdf {
+        match self {
+            Material::Diffuse { reflectance } => {
+                Bsdf::Diffuse(DiffuseBsdf::new(reflectance.sample(wl), geom))
+            }
+        }
+    }
+}
+
+impl Bsdf {
+    /// f(wo, wi) for the path's `wo`.
+    pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
+        match self {
+            Bsdf::Diffuse(b) => b.eval(wi),
+        }
+    }
+
+    /// Solid-angle density with which `sample` returns `wi`.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Diffuse(b) => b.pdf(wi),
+        }
+    }
+
+    pub fn sample(&self, u: (f32, f32)) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Diffuse(b) => b.sample(u),
+        }
+    }
+
+    /// |cos| between `wi` and the shading normal, for the rendering equation.
+    pub fn cos_theta(&self, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Diffuse(b) => b.frame().n.dot(wi).abs(),
+        }
+    }
+}
+
+/// A frame whose normal is the shading normal turned to the side of the
+/// surface that `wo` is on, plus the geometric normal turned the same way.
+/// Two-sided shading: both faces of a surface reflect alike.
+pub(crate) fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
+    let ng = if geom.ng.dot(geom.wo) < 0.0 {
+        -geom.ng
+    } else {
+        geom.ng
+    };
+    let ns = if geom.ns.dot(ng) < 0.0 {
+        -geom.ns
+    } else {
+        geom.ns
+    };
+    (Frame::from_normal(ns), ng)
+}
+
+/// Cosine-weighted direction on the +z hemisphere (Malley's method over a
+/// concentric disk sample).
+pub fn cosine_hemisphere(u: (f32, f32)) -> Vec3 {
+    let (ox, oy) = (2.0 * u.0 - 1.0, 2.0 * u.1 - 1.0);
+    let (r, phi) = if ox == 0.0 && oy == 0.0 {
+        (0.0, 0.0)
+    } else if ox.abs() > oy.abs() {
+        (ox, std::f32::consts::FRAC_PI_4 * (oy / ox))
+    } else {
+        (
+            oy,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (ox / oy),
+        )
+    };
+    let (x, y) = (r * phi.cos(), r * phi.sin());
+    Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
+}

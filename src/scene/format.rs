@@ -1,0 +1,201 @@
+//! The TOML scene format, version 1: serde structures with their defaults.
+//! Every table rejects unknown keys; README.md documents each key.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+use super::spectrum_spec::SpectrumSpec;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub camera: CameraSpec,
+    #[serde(default)]
+    pub film: FilmSpec,
+    #[serde(default)]
+    pub integrator: IntegratorSpec,
+    /// Named spectra that materials and shapes can refer to by name.
+    #[serde(default)]
+    pub spectra: BTreeMap<String, SpectrumSpec>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialSpec>,
+    #[serde(default, rename = "shape")]
+    pub shapes: Vec<ShapeSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees (default 40 unless focal_length is given).
+    pub fov: Option<f32>,
+    /// Lens focal length in mm; with `film_height` it sets the field of view.
+    pub focal_length: Option<f32>,
+    /// Height of the film (sensor) in mm, for `focal_length`.
+    #[serde(default = "default_film_height")]
+    pub film_height: f32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+fn default_film_height() -> f32 {
+    24.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FilmSpec {
+    /// [width, height] in pixels.
+    pub resolution: [u32; 2],
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum number of bounces: 1 is direct lighting only.
+    pub max_depth: u32,
+    /// Seed of every random decision; the same seed gives the same image.
+    pub seed: u64,
+    /// Exposure in stops applied to the PNG (the EXR stays radiometric).
+    pub exposure: f32,
+    /// Tone map for the PNG.
+    pub tonemap: Tonemap,
+    /// Wavelength range [min, max] in nm of the spectral buckets.
+    pub spectral_range: [f32; 2],
+    /// Number of equal-width spectral buckets over `spectral_range`.
+    pub spectral_buckets: u32,
+}
+
+impl Default for FilmSpec {
+    fn default() -> Self {
+        Self {
+            resolution: [512, 512],
+            spp: 64,
+            max_depth: 16,
+            seed: 0,
+            exposure: 0.0,
+            tonemap: Tonemap::Clamp,
+            spectral_range: [380.0, 780.0],
+            spectral_buckets: 40,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Tonemap {
+    /// Clip linear values to [0, 1] before sRGB encoding.
+    #[default]
+    Clamp,
+    /// x / (1 + x) per channel: keeps highlights, compresses everything.
+    Reinhard,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IntegratorSpec {
+    /// How direct light is found: "mis" (both, combined), "nee" (light
+    /// sampling only) or "bsdf" (BSDF sampling only). All converge to the
+    /// same image; "mis" has the least noise.
+    pub strategy: Strategy,
+    /// Bounces before Russian roulette may end a path.
+    pub rr_depth: u32,
+}
+
+impl Default for IntegratorSpec {
+    fn default() -> Self {
+        Self {
+            strategy: Strategy::Mis,
+            rr_depth: 3,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Strategy {
+    #[default]
+    Mis,
+    Nee,
+    Bsdf,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum MaterialSpec {
+    Diffuse {
+        #[serde(default = "default_reflectance")]
+        reflectance: SpectrumSpec,
+    },
+}
+
+fn default_reflectance() -> SpectrumSpec {
+    SpectrumSpec::Constant(0.5)
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeKind {
+    Obj,
+    Quad,
+    Sphere,
+}
+
+/// A shape. Which keys apply depends on `type`; the loader rejects the others.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShapeSpec {
+    #[serde(rename = "type")]
+    pub kind: ShapeKind,
+    /// Name of a material in [materials]; default: diffuse with reflectance 0.5.
+    pub material: Option<String>,
+    /// Emitted spectral radiance: makes the shape an area light.
+    pub emission: Option<SpectrumSpec>,
+    /// Multiplies `emission`.
+    pub emission_scale: Option<f32>,
+    /// Emit from both faces (default: only the front, by winding order).
+    pub two_sided: Option<bool>,
+    /// Reverse the winding (and so the front face and normals).
+    #[serde(default)]
+    pub flip_normals: bool,
+    pub transform: Option<TransformSpec>,
+    /// obj: path of the OBJ file, relative to the scene file.
+    pub file: Option<PathBuf>,
+    /// quad: four corners in order; the front face is counter-clockwise.
+    pub vertices: Option<[[f32; 3]; 4]>,
+    /// sphere: centre and radius.
+    pub center: Option<[f32; 3]>,
+    pub radius: Option<f32>,
+    /// sphere: segments around the equator (default 64).
+    pub segments: Option<u32>,
+    /// sphere and obj: interpolate vertex normals (default true).
+    pub smooth: Option<bool>,
+}
+
+/// Scale, then rotate, then translate; or a full row-major 4×4 matrix.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformSpec {
+    pub scale: Option<ScaleSpec>,
+    pub rotate: Option<RotateSpec>,
+    pub translate: Option<[f32; 3]>,
+    pub matrix: Option<[f32; 16]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+pub enum ScaleSpec {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotateSpec {
+    pub axis: [f32; 3],
+    pub degrees: f32,
+}

@@ -1,0 +1,528 @@
+//! Scene file → runtime [`Scene`]: parse, validate, resolve names, spectra
+//! and files. Every failure names the file and the key at fault.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Quat, Vec3};
+
+use super::format::{MaterialSpec, ScaleSpec, SceneFile, ShapeKind, ShapeSpec, TransformSpec};
+use super::spectrum_spec::SpectrumSpec;
+use super::{Emission, Mesh, RenderSettings, Scene, ShapeInstance};
+use crate::camera::{fov_from_focal_length, Camera};
+use crate::material::Material;
+use crate::spectrum::{
+    cie, csv, rgb2spec, RgbSpectrum, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN,
+};
+
+/// A scene that could not be loaded: which file, and what is wrong.
+#[derive(Debug)]
+pub struct SceneError {
+    pub file: PathBuf,
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.file.display(), self.message)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Loads a scene file; relative paths in it are relative to its folder.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let err = |message: String| SceneError {
+        file: path.to_path_buf(),
+        message,
+    };
+    if path.is_dir() {
+        return Err(err("is a directory, not a scene file".into()));
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err(format!("cannot read the scene file: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    Loader {
+        scene_file: path.to_path_buf(),
+        base: base.to_path_buf(),
+    }
+    .load(&text)
+}
+
+/// Loads a scene from TOML text; `base` is the folder relative paths start from.
+pub fn load_str(text: &str, base: &Path) -> Result<Scene, SceneError> {
+    Loader {
+        scene_file: PathBuf::from("<scene>"),
+        base: base.to_path_buf(),
+    }
+    .load(text)
+}
+
+struct Loader {
+    scene_file: PathBuf,
+    base: PathBuf,
+}
+
+/// Which physical quantity a spectrum stands for: it decides how RGB is
+/// upsampled and which values are allowed.
+#[derive(Clone, Copy, PartialEq)]
+enum Role {
+    Reflectance,
+    Emission,
+}
+
+impl Loader {
+    fn error(&self, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: self.scene_file.clone(),
+            message: message.into(),
+        }
+    }
+
+    fn load(&self, text: &str) -> Result<Scene, SceneError> {
+        let value: toml::Table = toml::from_str(text).map_err(|e| self.error(e.to_string()))?;
+        if let Some(key) = first_non_finite(&toml::Value::Table(value), "") {
+            return Err(self.error(format!(
+                "`{key}` is not a finite number; numbers in a scene must be finite"
+            )));
+        }
+        let file: SceneFile = toml::from_str(text).map_err(|e| self.error(e.to_string()))?;
+
+        let settings = self.settings(&file)?;
+        let camera = self.camera(&file, &settings)?;
+
+        let mut material_index = BTreeMap::new();
+        let mut materials = Vec::new();
+        for (name, spec) in &file.materials {
+            let m = match spec {
+                MaterialSpec::Diffuse { reflectance } => Material::Diffuse {
+                    reflectance: self.spectrum(
+                        reflectance,
+                        Role::Reflectance,
+                        &file,
+                        &format!("materials.{name}.reflectance"),
+                    )?,
+                },
+            };
+            material_index.insert(name.clone(), materials.len() as u32);
+            materials.push(m);
+        }
+        let default_material = materials.len() as u32;
+        materials.push(Material::Diffuse {
+            reflectance: Spectrum::Constant(0.5),
+        });
+
+        let mut shapes = Vec::new();
+        for (i, shape) in file.shapes.iter().enumerate() {
+            let key = format!("shape[{i}]");
+            let material = match &shape.material {
+                None => default_material,
+                Some(name) => *material_index.get(name).ok_or_else(|| {
+                    self.error(format!(
+                        "`{key}.material`: no material named `{name}` (defined: {})",
+                        list(file.materials.keys())
+                    ))
+                })?,
+            };
+            let emission = match &shape.emission {
+                None => {
+                    if shape.emission_scale.is_some() || shape.two_sided.is_some() {
+                        return Err(self.error(format!(
+                            "`{key}`: `emission_scale` and `two_sided` need `emission`"
+                        )));
+                    }
+                    None
+                }
+                Some(spec) => {
+                    let scale = shape.emission_scale.unwrap_or(1.0);
+                    if scale < 0.0 {
+                        return Err(
+                            self.error(format!("`{key}.emission_scale` must not be negative"))
+                        );
+                    }
+                    Some(Emission {
+                        spectrum: self
+                            .spectrum(spec, Role::Emission, &file, &format!("{key}.emission"))?
+                            .scaled(scale),
+                        two_sided: shape.two_sided.unwrap_or(false),
+                    })
+                }
+            };
+            let mesh = self.mesh(shape, &key)?;
+            shapes.push(ShapeInstance {
+                mesh,
+                material,
+                emission,
+            });
+        }
+        Ok(Scene::build(camera, settings, materials, shapes))
+    }
+
+    fn settings(&self, file: &SceneFile) -> Result<RenderSettings, SceneError> {
+        let f = &file.film;
+        let [width, height] = f.resolution;
+        if width == 0 || height == 0 {
+            return Err(self.error(format!(
+                "`film.resolution` must be positive, found [{width}, {height}]"
+            )));
+        }
+        if f.spp == 0 {
+            return Err(self.error("`film.spp` must be at least 1"));
+        }
+        let [lo, hi] = f.spectral_range;
+        if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lo)
+            || !(LAMBDA_MIN..=LAMBDA_MAX).contains(&hi)
+            || lo >= hi
+        {
+            return Err(self.error(format!(
+                "`film.spectral_range` must be an increasing pair within [{LAMBDA_MIN}, {LAMBDA_MAX}] nm, found [{lo}, {hi}]"
+            )));
+        }
+        if f.spectral_buckets == 0 || f.spectral_buckets > 4096 {
+            return Err(self.error("`film.spectral_buckets` must be between 1 and 4096"));
+        }
+        Ok(RenderSettings {
+            width,
+            height,
+            spp: f.spp,
+            max_depth: f.max_depth,
+            rr_depth: file.integrator.rr_depth,
+            seed: f.seed,
+            strategy: file.integrator.strategy,
+            exposure: f.exposure,
+            tonemap: f.tonemap,
+            spectral_range: f.spectral_range,
+            spectral_buckets: f.spectral_buckets,
+        })
+    }
+
+    fn camera(&self, file: &SceneFile, s: &RenderSettings) -> Result<Camera, SceneError> {
+        let c = &file.camera;
+        let fov = match (c.fov, c.focal_length) {
+            (Some(_), Some(_)) => {
+                return Err(self.error("`camera`: give either `fov` or `focal_length`, not both"))
+            }
+            (Some(fov), None) => fov,
+            (None, Some(f)) => {
+                if f <= 0.0 || c.film_height <= 0.0 {
+                    return Err(self
+                        .error("`camera.focal_length` and `camera.film_height` must be positive"));
+                }
+                fov_from_focal_length(f, c.film_height)
+            }
+            (None, None) => 40.0,
+        };
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(self.error(format!(
+                "`camera.fov` must be between 0 and 180 degrees, found {fov}"
+            )));
+        }
+        let (pos, at, up) = (
+            Vec3::from(c.position),
+            Vec3::from(c.look_at),
+            Vec3::from(c.up),
+        );
+        let forward = at - pos;
+        if forward.length_squared() == 0.0 {
+            return Err(self.error("`camera.look_at` must differ from `camera.position`"));
+        }
+        if forward.normalize().cross(up).length_squared() < 1e-12 {
+            return Err(self.error("`camera.up` must not be parallel to the viewing direction"));
+        }
+        Ok(Camera::look_at(pos, at, up, fov, s.width, s.height))
+    }
+
+    fn spectrum(
+        &self,
+        spec: &SpectrumSpec,
+        role: Role,
+        file: &SceneFile,
+        key: &str,
+    ) -> Result<Spectrum, SceneError> {
+        let spectrum = match spec {
+            SpectrumSpec::Named(name) => match file.spectra.get(name) {
+                Some(SpectrumSpec::Named(inner)) => self.builtin(inner, role, key)?,
+                Some(defined) => self.spectrum(defined, role, file, &format!("spectra.{name}"))?,
+                None => self.builtin(name, role, key)?,
+            },
+            SpectrumSpec::Constant(c) => Spectrum::Constant(*c),
+            SpectrumSpec::Table(rows) => {
+                let (l, v): (Vec<f32>, Vec<f32>) = rows.iter().map(|r| (r[0], r[1])).unzip();
+                self.table(l, v, key)?
+            }
+            SpectrumSpec::File { path, scale } => {
+                let full = self.base.join(path);
+                let text = std::fs::read_to_string(&full).map_err(|e| {
+                    self.error(format!(
+                        "`{key}`: cannot read spectrum file {}: {e}",
+                        full.display()
+                    ))
+                })?;
+                let t = csv::parse(&text)
+                    .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
+                Spectrum::Table(TabulatedSpectrum::new(t.wavelengths, t.columns[0].clone()))
+                    .scaled(*scale)
+            }
+            SpectrumSpec::Blackbody { kelvin, scale } => {
+                if !(*kelvin > 0.0) {
+                    return Err(
+                        self.error(format!("`{key}`: blackbody temperature must be positive"))
+                    );
+                }
+                normalised(Spectrum::Blackbody {
+                    kelvin: *kelvin,
+                    scale: 1.0,
+                })
+                .scaled(*scale)
+            }
+            SpectrumSpec::Rgb { rgb, scale } => {
+                let rgb = Vec3::from(*rgb);
+                if rgb.min_element() < 0.0 {
+                    return Err(self.error(format!("`{key}`: RGB components must not be negative")));
+                }
+                match role {
+                    Role::Reflectance => {
+                        if rgb.max_element() > 1.0 {
+                            return Err(self
+                                .error(format!("`{key}`: a reflectance RGB must lie in [0, 1]")));
+                        }
+                        let (sigmoid, s) = rgb2spec::albedo(rgb);
+                        Spectrum::Rgb(RgbSpectrum {
+                            sigmoid,
+                            scale: s,
+                            illuminant: None,
+                        })
+                        .scaled(*scale)
+                    }
+                    Role::Emission => {
+                        // Emission RGB is relative to the sRGB white, D65,
+                        // normalised so that rgb (1, 1, 1) has luminance 1.
+                        let (sigmoid, s) = rgb2spec::unbounded(rgb);
+                        let d65 = cie::d65();
+                        let y = cie::spectrum_to_xyz(&Spectrum::Table(d65.clone())).y;
+                        Spectrum::Rgb(RgbSpectrum {
+                            sigmoid,
+                            scale: s / y,
+                            illuminant: Some(d65.clone()),
+                        })
+                        .scaled(*scale)
+                    }
+                }
+            }
+        };
+        self.check_range(&spectrum, role, key)?;
+        Ok(spectrum)
+    }
+
+    /// A built-in illuminant, normalised to luminance Y = 1.
+    fn builtin(&self, name: &str, role: Role, key: &str) -> Result<Spectrum, SceneError> {
+        match cie::illuminant(name) {
+            Some(t) if role == Role::Emission => Ok(normalised(Spectrum::Table(t.clone()))),
+            Some(_) => Err(self.error(format!(
+                "`{key}`: `{name}` is an illuminant, not a reflectance"
+            ))),
+            None => Err(self.error(format!(
+                "`{key}`: unknown spectrum `{name}` (built-in: {}; or define it under [spectra])",
+                cie::ILLUMINANT_NAMES.join(", ")
+            ))),
+        }
+    }
+
+    fn table(&self, l: Vec<f32>, v: Vec<f32>, key: &str) -> Result<Spectrum, SceneError> {
+        if l.len() < 2 {
+            return Err(self.error(format!(
+                "`{key}`: a spectrum table needs at least two [nm, value] rows"
+            )));
+        }
+        if let Some(w) = l.windows(2).find(|w| !(w[0] < w[1])) {
+            return Err(self.error(format!(
+                "`{key}`: wavelengths must increase ({} nm then {} nm)",
+                w[0], w[1]
+            )));
+        }
+        if l[0] <= 0.0 {
+            return Err(self.error(format!("`{key}`: wavelengths must be positive")));
+        }
+        Ok(Spectrum::Table(TabulatedSpectrum::new(l, v)))
+    }
+
+    fn check_range(&self, s: &Spectrum, role: Role, key: &str) -> Result<(), SceneError> {
+        let (lo, hi) = sampled_range(s);
+        if lo < 0.0 {
+            return Err(self.error(format!("`{key}`: spectrum values must not be negative")));
+        }
+        if role == Role::Reflectance && hi > 1.0 + 1e-6 {
+            return Err(self.error(format!(
+                "`{key}`: a reflectance must lie in [0, 1], found values up to {hi}"
+            )));
+        }
+        Ok(())
+    }
+
+    fn mesh(&self, shape: &ShapeSpec, key: &str) -> Result<Mesh, SceneError> {
+        let only = |allowed: &[&str]| -> Result<(), SceneError> {
+            let given = [
+                ("file", shape.file.is_some()),
+                ("vertices", shape.vertices.is_some()),
+                ("center", shape.center.is_some()),
+                ("radius", shape.radius.is_some()),
+                ("segments", shape.segments.is_some()),
+                ("smooth", shape.smooth.is_some()),
+            ];
+            for (name, present) in given {
+                if present && !allowed.contains(&name) {
+                    return Err(self.error(format!(
+                        "`{key}.{name}` does not apply to a shape of type {:?}",
+                        shape.kind
+                    )));
+                }
+            }
+            Ok(())
+        };
+        let missing = |name: &str| {
+            self.error(format!(
+                "`{key}`: a shape of type {:?} needs `{name}`",
+                shape.kind
+            ))
+        };
+        let mut mesh = match shape.kind {
+            ShapeKind::Obj => {
+                only(&["file", "smooth"])?;
+                let rel = shape.file.as_ref().ok_or_else(|| missing("file"))?;
+                let path = self.base.join(rel);
+                if path.is_dir() {
+                    return Err(self.error(format!(
+                        "`{key}.file`: {} is a directory, not an OBJ file",
+                        path.display()
+                    )));
+                }
+                if !path.exists() {
+                    return Err(
+                        self.error(format!("`{key}.file`: {} does not exist", path.display()))
+                    );
+                }
+                Mesh::load_obj(&path, shape.smooth.unwrap_or(true))
+                    .map_err(|e| self.error(format!("`{key}.file`: {}: {e}", path.display())))?
+            }
+            ShapeKind::Quad => {
+                only(&["vertices"])?;
+                let v = shape.vertices.ok_or_else(|| missing("vertices"))?;
+                Mesh::quad(v.map(Vec3::from))
+            }
+            ShapeKind::Sphere => {
+                only(&["center", "radius", "segments", "smooth"])?;
+                let r = shape.radius.ok_or_else(|| missing("radius"))?;
+                if !(r > 0.0) {
+                    return Err(self.error(format!("`{key}.radius` must be positive")));
+                }
+                Mesh::sphere(
+                    Vec3::from(shape.center.unwrap_or([0.0; 3])),
+                    r,
+                    shape.segments.unwrap_or(64),
+                    shape.smooth.unwrap_or(true),
+                )
+            }
+        };
+        if let Some(t) = &shape.transform {
+            mesh.transform(&self.transform(t, key)?);
+        }
+        if shape.flip_normals {
+            mesh.flip();
+        }
+        Ok(mesh)
+    }
+
+    fn transform(&self, t: &TransformSpec, key: &str) -> Result<Mat4, SceneError> {
+        let m = if let Some(m) = t.matrix {
+            if t.scale.is_some() || t.rotate.is_some() || t.translate.is_some() {
+                return Err(self.error(format!(
+                    "`{key}.transform`: give `matrix` or scale/rotate/translate, not both"
+                )));
+            }
+            Mat4::from_cols_array(&m).transpose()
+        } else {
+            let scale = match &t.scale {
+                None => Vec3::ONE,
+                Some(ScaleSpec::Uniform(s)) => Vec3::splat(*s),
+                Some(ScaleSpec::PerAxis(s)) => Vec3::from(*s),
+            };
+            let rotation = match &t.rotate {
+                None => Quat::IDENTITY,
+                Some(r) => {
+                    let axis = Vec3::from(r.axis);
+                    if axis.length_squared() == 0.0 {
+                        return Err(
+                            self.error(format!("`{key}.transform.rotate.axis` must not be zero"))
+                        );
+                    }
+                    Quat::from_axis_angle(axis.normalize(), r.degrees.to_radians())
+                }
+            };
+            Mat4::from_scale_rotation_translation(
+                scale,
+                rotation,
+                Vec3::from(t.translate.unwrap_or([0.0; 3])),
+            )
+        };
+        let det = m.determinant();
+        if !(det.abs() > 0.0) || !m.is_finite() {
+            return Err(self.error(format!(
+                "`{key}.transform` is singular: it would flatten the shape"
+            )));
+        }
+        Ok(m)
+    }
+}
+
+/// Scales an illuminant so that its luminance (CIE Y, as the film computes it) is 1.
+fn normalised(s: Spectrum) -> Spectrum {
+    let y = cie::spectrum_to_xyz(&s).y;
+    if y > 0.0 {
+        s.scaled(1.0 / y)
+    } else {
+        s
+    }
+}
+
+/// Smallest and largest value of a spectrum over the rendered range.
+fn sampled_range(s: &Spectrum) -> (f32, f32) {
+    (0..=(LAMBDA_MAX - LAMBDA_MIN) as usize)
+        .map(|i| s.eval(LAMBDA_MIN + i as f32))
+        .chain(match s {
+            Spectrum::Table(t) => t.values().to_vec(),
+            _ => vec![],
+        })
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        })
+}
+
+fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
+    let v: Vec<&str> = names.map(String::as_str).collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+/// The dotted key of the first NaN or infinite number in a TOML value.
+fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some(key.to_string()),
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
+            let sub = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            first_non_finite(v, &sub)
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| first_non_finite(v, &format!("{key}[{i}]"))),
+        _ => None,
+    }
+}

@@ -1,0 +1,175 @@
+//! Triangle meshes: built-in shapes, OBJ files, and transforms.
+
+use std::f32::consts::PI;
+use std::path::Path;
+
+use glam::{Mat3, Mat4, Vec3};
+
+/// An indexed triangle mesh in world space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals for smooth shading, if any.
+    pub normals: Option<Vec<Vec3>>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// A planar quad through four corners, front face counter-clockwise.
+    pub fn quad(corners: [Vec3; 4]) -> Mesh {
+        Mesh {
+            positions: corners.to_vec(),
+            normals: None,
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+        }
+    }
+
+    /// A latitude-longitude sphere with outward normals (front face outside).
+    pub fn sphere(center: Vec3, radius: f32, segments: u32, smooth: bool) -> Mesh {
+        let segments = segments.max(3);
+        let rings = (segments / 2).max(2);
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        for r in 0..=rings {
+            // Exact poles, so that their fans are cleanly degenerate (dropped).
+            let (sin_t, cos_t) = match r {
+                0 => (0.0, 1.0),
+                _ if r == rings => (0.0, -1.0),
+                _ => (PI * r as f32 / rings as f32).sin_cos(),
+            };
+            for s in 0..=segments {
+                let phi = 2.0 * PI * s as f32 / segments as f32;
+                let n = Vec3::new(sin_t * phi.cos(), cos_t, sin_t * phi.sin());
+                positions.push(center + radius * n);
+                normals.push(n);
+            }
+        }
+        let row = segments + 1;
+        let mut indices = Vec::new();
+        for r in 0..rings {
+            for s in 0..segments {
+                let (a, b) = (r * row + s, r * row + s + 1);
+                let (c, d) = (a + row, b + row);
+                // Degenerate triangles at the poles are dropped by the scene.
+                indices.push([a, b, d]);
+                indices.push([a, d, c]);
+            }
+        }
+        Mesh {
+            positions,
+            normals: smooth.then_some(normals),
+            indices,
+        }
+    }
+
+    /// Reads an OBJ file (any polygons, triangulated). Vertex normals are
+    /// kept for smooth shading when the file has them and `smooth` is set.
+    pub fn load_obj(path: &Path, smooth: bool) -> Result<Mesh, String> {
+        let options = tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ..Default::default()
+        };
+        let (models, _materials) =
+            tobj::load_obj(path, &options).map_err(|e| format!("cannot read OBJ: {e}"))?;
+        let mut mesh = Mesh::default();
+        let mut all_have_normals = true;
+        let mut normals = Vec::new();
+        for model in &models {
+            let m = &model.mesh;
+            let base = mesh.positions.len() as u32;
+            let count = m.positions.len() / 3;
+            for v in m.positions.chunks_exact(3) {
+                mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
+            }
+            if m.normals.len() == m.positions.len() {
+                normals.extend(
+                    m.normals
+                        .chunks_exact(3)
+                        .map(|n| Vec3::new(n[0], n[1], n[2])),
+                );
+            } else {
+                all_have_normals = false;
+            }
+            for f in m.indices.chunks_exact(3) {
+                if f.iter().any(|&i| i as usize >= count) {
+                    return Err(format!(
+                        "face index out of range in object `{}`",
+                        model.name
+                    ));
+                }
+                mesh.indices.push([base + f[0], base + f[1], base + f[2]]);
+            }
+        }
+        if mesh.indices.is_empty() {
+            return Err("the OBJ file has no faces".into());
+        }
+        if let Some(bad) = mesh.positions.iter().position(|p| !p.is_finite()) {
+            return Err(format!("vertex {} is not finite", bad + 1));
+        }
+        if smooth && all_have_normals && normals.iter().all(|n| n.is_finite()) {
+            mesh.normals = Some(normals);
+        }
+        Ok(mesh)
+    }
+
+    /// Applies an affine transform (normals by the inverse transpose).
+    pub fn transform(&mut self, m: &Mat4) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        if let Some(normals) = &mut self.normals {
+            let nm = Mat3::from_mat4(*m).inverse().transpose();
+            for n in normals {
+                *n = (nm * *n).normalize_or_zero();
+            }
+        }
+        // A mirroring transform turns the winding, and so the front face.
+        if Mat3::from_mat4(*m).determinant() < 0.0 {
+            self.flip();
+        }
+    }
+
+    /// Reverses the winding and normals, turning the front face around.
+    pub fn flip(&mut self) {
+        for f in &mut self.indices {
+            f.swap(1, 2);
+        }
+        if let Some(normals) = &mut self.normals {
+            normals.iter_mut().for_each(|n| *n = -*n);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_faces_point_outward() {
+        let m = Mesh::sphere(Vec3::new(1.0, 2.0, 3.0), 2.0, 16, true);
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        let mut area = 0.0;
+        for f in &m.indices {
+            let p = f.map(|i| m.positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            if n.length() > 0.0 {
+                assert!(n.dot((p[0] + p[1] + p[2]) / 3.0 - c) > 0.0, "{p:?} {n}");
+                area += 0.5 * n.length();
+            }
+        }
+        // A 16-segment sphere's area is a little under 4πr².
+        assert!(
+            area < 4.0 * PI * 4.0 && area > 0.9 * 4.0 * PI * 4.0,
+            "{area}"
+        );
+    }
+
+    #[test]
+    fn mirroring_keeps_the_outside_outside() {
+        let mut m = Mesh::quad([Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y]);
+        m.transform(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+        let p = m.indices[0].map(|i| m.positions[i as usize]);
+        assert!((p[1] - p[0]).cross(p[2] - p[0]).z > 0.0);
+    }
+}

@@ -1,0 +1,195 @@
+//! How a spectrum is written in a scene file:
+//!
+//! - `0.5`: constant
+//! - `"D65"`: a built-in illuminant or a name from the scene's [spectra]
+//! - `[[400, 0.1], [700, 0.9]]`: a table of (nm, value), piecewise linear
+//! - `{ file = "red.csv" }`: a CSV table next to the scene
+//! - `{ blackbody = 2856 }`: Planck's law at that temperature in kelvin
+//! - `{ rgb = [0.8, 0.2, 0.1] }`: linear sRGB, upsampled to a smooth spectrum
+//! - `{ constant = 0.5 }`
+//!
+//! Each map form also takes `scale = x`.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SpectrumSpec {
+    Constant(f32),
+    Named(String),
+    Table(Vec<[f32; 2]>),
+    File { path: PathBuf, scale: f32 },
+    Blackbody { kelvin: f32, scale: f32 },
+    Rgb { rgb: [f32; 3], scale: f32 },
+}
+
+const FORMS: &str = "a number, a name such as \"D65\", a table [[nm, value], ...], \
+or a table with one of `file`, `blackbody`, `rgb`, `constant` (and optionally `scale`)";
+
+impl<'de> Deserialize<'de> for SpectrumSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(SpectrumVisitor)
+    }
+}
+
+struct SpectrumVisitor;
+
+impl<'de> Visitor<'de> for SpectrumVisitor {
+    type Value = SpectrumSpec;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str(FORMS)
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Self::Value, E> {
+        Ok(SpectrumSpec::Constant(v as f32))
+    }
+
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Self::Value, E> {
+        Ok(SpectrumSpec::Constant(v as f32))
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Self::Value, E> {
+        Ok(SpectrumSpec::Constant(v as f32))
+    }
+
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<Self::Value, E> {
+        Ok(SpectrumSpec::Named(v.to_string()))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut rows = Vec::new();
+        while let Some(row) = seq.next_element::<Vec<f32>>()? {
+            match row[..] {
+                [lambda, value] => rows.push([lambda, value]),
+                _ => {
+                    return Err(de::Error::custom(format!(
+                        "each row of a spectrum table is [nm, value], found {} numbers",
+                        row.len()
+                    )))
+                }
+            }
+        }
+        Ok(SpectrumSpec::Table(rows))
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut file: Option<PathBuf> = None;
+        let mut blackbody: Option<f32> = None;
+        let mut rgb: Option<[f32; 3]> = None;
+        let mut constant: Option<f32> = None;
+        let mut scale: Option<f32> = None;
+        while let Some(key) = map.next_key::<String>()? {
+            match key.as_str() {
+                "file" => file = Some(map.next_value()?),
+                "blackbody" => blackbody = Some(map.next_value()?),
+                "rgb" => rgb = Some(map.next_value()?),
+                "constant" => constant = Some(map.next_value()?),
+                "scale" => scale = Some(map.next_value()?),
+                other => {
+                    return Err(de::Error::unknown_field(
+                        other,
+                        &["file", "blackbody", "rgb", "constant", "scale"],
+                    ))
+                }
+            }
+        }
+        let scale_or_one = scale.unwrap_or(1.0);
+        let forms = file.is_some() as u8
+            + blackbody.is_some() as u8
+            + rgb.is_some() as u8
+            + constant.is_some() as u8;
+        if forms != 1 {
+            return Err(de::Error::custom(format!(
+                "a spectrum table needs exactly one of `file`, `blackbody`, `rgb`, `constant` (found {forms})"
+            )));
+        }
+        Ok(if let Some(path) = file {
+            SpectrumSpec::File {
+                path,
+                scale: scale_or_one,
+            }
+        } else if let Some(kelvin) = blackbody {
+            SpectrumSpec::Blackbody {
+                kelvin,
+                scale: scale_or_one,
+            }
+        } else if let Some(rgb) = rgb {
+            SpectrumSpec::Rgb {
+                rgb,
+                scale: scale_or_one,
+            }
+        } else {
+            SpectrumSpec::Constant(constant.unwrap() * scale_or_one)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Deserialize)]
+    struct Holder {
+        s: SpectrumSpec,
+    }
+
+    fn parse(text: &str) -> Result<SpectrumSpec, String> {
+        toml::from_str::<Holder>(text)
+            .map(|h| h.s)
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn every_form_parses() {
+        assert_eq!(parse("s = 0.25").unwrap(), SpectrumSpec::Constant(0.25));
+        assert_eq!(parse("s = 2").unwrap(), SpectrumSpec::Constant(2.0));
+        assert_eq!(
+            parse("s = \"D65\"").unwrap(),
+            SpectrumSpec::Named("D65".into())
+        );
+        assert_eq!(
+            parse("s = [[400, 0.1], [700.5, 1]]").unwrap(),
+            SpectrumSpec::Table(vec![[400.0, 0.1], [700.5, 1.0]])
+        );
+        assert_eq!(
+            parse("s = { file = \"a.csv\", scale = 2 }").unwrap(),
+            SpectrumSpec::File {
+                path: "a.csv".into(),
+                scale: 2.0
+            }
+        );
+        assert_eq!(
+            parse("s = { blackbody = 2856 }").unwrap(),
+            SpectrumSpec::Blackbody {
+                kelvin: 2856.0,
+                scale: 1.0
+            }
+        );
+        assert_eq!(
+            parse("s = { rgb = [1, 0.5, 0] }").unwrap(),
+            SpectrumSpec::Rgb {
+                rgb: [1.0, 0.5, 0.0],
+                scale: 1.0
+            }
+        );
+    }
+
+    #[test]
+    fn bad_forms_say_what_is_wrong_and_where() {
+        let e = parse("s = { rgb = [1, 0.5, 0], file = \"x\" }").unwrap_err();
+        assert!(e.contains("exactly one"), "{e}");
+        let e = parse("s = { colour = 1 }").unwrap_err();
+        assert!(
+            e.contains("unknown field `colour`") && e.contains("line 1"),
+            "{e}"
+        );
+        let e = parse("s = true").unwrap_err();
+        assert!(e.contains("a number, a name"), "{e}");
+        let e = parse("s = [[400, 1, 2]]").unwrap_err();
+        assert!(e.contains("line 1") && e.contains("[nm, value]"), "{e}");
+    }
+}

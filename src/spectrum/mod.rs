@@ -1,0 +1,16 @@
+//! Spectral quantities: wavelengths sampled per path, the spectra that are
+//! evaluated at them, CIE colorimetry and RGB upsampling.
+
+pub mod cie;
+pub mod csv;
+pub mod rgb2spec;
+mod spectra;
+mod wavelengths;
+
+pub use spectra::{RgbSpectrum, Spectrum, TabulatedSpectrum};
+pub use wavelengths::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+
+/// Shortest wavelength a path may carry, in nanometres.
+pub const LAMBDA_MIN: f32 = 360.0;
+/// Longest wavelength a path may carry, in nanometres.
+pub const LAMBDA_MAX: f32 = 830.0;

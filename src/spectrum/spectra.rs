@@ -1,0 +1,180 @@
+//! Spectral distributions: functions of wavelength that materials and lights
+//! are made of, evaluated at a path's sampled wavelengths.
+
+use super::rgb2spec::SigmoidPolynomial;
+use super::{SampledSpectrum, SampledWavelengths};
+
+/// A piecewise-linear spectrum through measured points. Outside its range it
+/// is zero, as in pbrt-v4 and Mitsuba 3: extend a table if you mean otherwise.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TabulatedSpectrum {
+    lambdas: Vec<f32>,
+    values: Vec<f32>,
+}
+
+impl TabulatedSpectrum {
+    /// `lambdas` must be strictly increasing (the CSV reader and the scene
+    /// loader check this for user input) and as long as `values`.
+    pub fn new(lambdas: Vec<f32>, values: Vec<f32>) -> Self {
+        assert_eq!(lambdas.len(), values.len());
+        assert!(lambdas.len() >= 2 && lambdas.windows(2).all(|w| w[0] < w[1]));
+        Self { lambdas, values }
+    }
+
+    pub fn eval(&self, lambda: f32) -> f32 {
+        let l = &self.lambdas;
+        if !(lambda >= l[0] && lambda <= l[l.len() - 1]) {
+            return 0.0;
+        }
+        let i = l.partition_point(|&x| x <= lambda).clamp(1, l.len() - 1) - 1;
+        let t = (lambda - l[i]) / (l[i + 1] - l[i]);
+        self.values[i] + t * (self.values[i + 1] - self.values[i])
+    }
+
+    pub fn scaled(mut self, s: f32) -> Self {
+        self.values.iter_mut().for_each(|v| *v *= s);
+        self
+    }
+
+    pub fn lambdas(&self) -> &[f32] {
+        &self.lambdas
+    }
+
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+}
+
+/// An RGB colour turned into a smooth spectrum (Jakob & Hanika 2019):
+/// `scale · sigmoid(polynomial(λ)) · illuminant(λ)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RgbSpectrum {
+    pub sigmoid: SigmoidPolynomial,
+    /// 1 for reflectances; 2·max(rgb) for unbounded values.
+    pub scale: f32,
+    /// For emission: the white of the colour space (D65 for sRGB).
+    pub illuminant: Option<TabulatedSpectrum>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Spectrum {
+    Constant(f32),
+    Table(TabulatedSpectrum),
+    /// Planck's law in W·m⁻²·sr⁻¹·nm⁻¹, times `scale`.
+    Blackbody {
+        kelvin: f32,
+        scale: f32,
+    },
+    Rgb(RgbSpectrum),
+}
+
+impl Spectrum {
+    pub fn eval(&self, lambda: f32) -> f32 {
+        match self {
+            Spectrum::Constant(c) => *c,
+            Spectrum::Table(t) => t.eval(lambda),
+            Spectrum::Blackbody { kelvin, scale } => scale * planck(lambda, *kelvin),
+            Spectrum::Rgb(rgb) => {
+                let mut v = rgb.scale * rgb.sigmoid.eval(lambda);
+                if let Some(illum) = &rgb.illuminant {
+                    v *= illum.eval(lambda);
+                }
+                v
+            }
+        }
+    }
+
+    /// The spectrum at each of the path's wavelengths.
+    pub fn sample(&self, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Spectrum::Constant(c) => SampledSpectrum::splat(*c),
+            _ => SampledSpectrum::new(
+                self.eval(wl.lambda.x),
+                self.eval(wl.lambda.y),
+                self.eval(wl.lambda.z),
+                self.eval(wl.lambda.w),
+            ),
+        }
+    }
+
+    /// The same spectrum multiplied by `s`.
+    pub fn scaled(self, s: f32) -> Spectrum {
+        match self {
+            Spectrum::Constant(c) => Spectrum::Constant(c * s),
+            Spectrum::Table(t) => Spectrum::Table(t.scaled(s)),
+            Spectrum::Blackbody { kelvin, scale } => Spectrum::Blackbody {
+                kelvin,
+                scale: scale * s,
+            },
+            Spectrum::Rgb(mut rgb) => {
+                rgb.scale *= s;
+                Spectrum::Rgb(rgb)
+            }
+        }
+    }
+
+    /// Mean value over [min, max] nm by a 1 nm midpoint rule.
+    pub fn average(&self, min: f32, max: f32) -> f32 {
+        let n = ((max - min).ceil() as usize).max(1);
+        let h = (max - min) / n as f32;
+        let sum: f64 = (0..n)
+            .map(|i| self.eval(min + (i as f32 + 0.5) * h) as f64)
+            .sum();
+        (sum / n as f64) as f32
+    }
+
+    /// Largest value over [min, max] nm, sampled at 1 nm.
+    pub fn max_value(&self, min: f32, max: f32) -> f32 {
+        let n = (max - min).ceil() as usize;
+        (0..=n)
+            .map(|i| self.eval((min + i as f32).min(max)))
+            .fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+/// Planck's law: spectral radiance of a blackbody at `kelvin`, in
+/// W·m⁻²·sr⁻¹·nm⁻¹, at wavelength `lambda_nm`.
+pub fn planck(lambda_nm: f32, kelvin: f32) -> f32 {
+    if kelvin <= 0.0 {
+        return 0.0;
+    }
+    const C: f64 = 299_792_458.0;
+    const H: f64 = 6.626_070_15e-34;
+    const KB: f64 = 1.380_649e-23;
+    let l = lambda_nm as f64 * 1e-9;
+    let radiance_per_m =
+        2.0 * H * C * C / (l.powi(5) * ((H * C / (l * KB * kelvin as f64)).exp() - 1.0));
+    (radiance_per_m * 1e-9) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_interpolates_and_is_zero_outside() {
+        let t = TabulatedSpectrum::new(vec![400.0, 500.0, 600.0], vec![0.0, 8.0, 16.0]);
+        assert_eq!(t.eval(450.0), 4.0);
+        assert_eq!(t.eval(400.0), 0.0);
+        assert_eq!(t.eval(600.0), 16.0);
+        assert_eq!(t.eval(550.0), 12.0);
+        assert_eq!(t.eval(399.0), 0.0);
+        assert_eq!(t.eval(601.0), 0.0);
+        assert_eq!(t.eval(f32::NAN), 0.0);
+    }
+
+    #[test]
+    fn planck_peak_follows_wien() {
+        // Wien's displacement: λ_max = 2.897771955e6 nm·K / T.
+        let t = 5000.0;
+        let peak = (300..=1000)
+            .map(|l| (l, planck(l as f32, t)))
+            .max_by(|a, b| a.1.partial_cmp(&b.1).unwrap())
+            .unwrap()
+            .0;
+        assert!((peak as f32 - 2.897_772e6 / t).abs() <= 1.0, "peak {peak}");
+        // Absolute value at 500 nm, 5000 K: 1.2107e13 W m^-3 sr^-1 → per nm.
+        let v = planck(500.0, 5000.0);
+        assert!((v / 1.2107e4 - 1.0).abs() < 1e-3, "{v}");
+    }
+}
