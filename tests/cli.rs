@@ -1,0 +1,123 @@
+//! The command line end to end: renders write readable images, bad input
+//! exits non-zero with a message and no panic, and renders are reproducible.
+
+use std::path::Path;
+use std::process::Command;
+
+fn prism() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_prism"))
+}
+
+const SCENE: &str = r#"
+[camera]
+position = [0, 1, -4]
+look_at = [0, 0.5, 0]
+
+[film]
+resolution = [24, 16]
+spp = 4
+
+[[shape]]
+type = "quad"
+vertices = [[-5, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]
+
+[[shape]]
+type = "sphere"
+center = [0, 3, 0]
+radius = 0.5
+emission = "D65"
+emission_scale = 10
+"#;
+
+#[test]
+fn render_writes_exr_and_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("tiny.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let out = prism()
+        .args(["render", "--quiet", "--threads", "2"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let png = image::open(dir.path().join("tiny.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (24, 16));
+    assert!(png.pixels().any(|p| p.0 != [0, 0, 0]), "the image is black");
+    let exr = exr::prelude::read_first_rgba_layer_from_file(
+        dir.path().join("tiny.exr"),
+        |res, _| vec![[0f32; 3]; res.width() * res.height()],
+        |px: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * 24 + pos.x()] = [r, g, b]
+        },
+    )
+    .unwrap();
+    let pixels = &exr.layer_data.channel_data.pixels;
+    assert!(pixels
+        .iter()
+        .all(|p| p.iter().all(|v| v.is_finite() && *v >= -1e-3)));
+    // No temporary files are left behind.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
+}
+
+#[test]
+fn output_option_and_determinism_across_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    for (threads, name) in [("1", "one"), ("2", "two")] {
+        let out = prism()
+            .args(["render", "-q", "--threads", threads, "-o"])
+            .arg(dir.path().join(format!("{name}.png")))
+            .arg(&scene)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let a = std::fs::read(dir.path().join("one.exr")).unwrap();
+    let b = std::fs::read(dir.path().join("two.exr")).unwrap();
+    assert!(
+        a == b,
+        "the same scene and seed gave different images with 1 and 2 threads"
+    );
+}
+
+fn failing(args: &[&str], cwd: &Path) -> String {
+    let out = prism().args(args).current_dir(cwd).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+#[test]
+fn bad_input_exits_with_a_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = failing(&["render", "missing.toml"], dir.path());
+    assert!(
+        err.contains("missing.toml") && err.contains("cannot read"),
+        "{err}"
+    );
+    std::fs::write(dir.path().join("bad.toml"), "[camera\n").unwrap();
+    let err = failing(&["render", "bad.toml"], dir.path());
+    assert!(err.contains("bad.toml") && err.contains("line 1"), "{err}");
+    std::fs::write(dir.path().join("ok.toml"), SCENE).unwrap();
+    let err = failing(
+        &["render", "ok.toml", "-o", "no/such/folder/out"],
+        dir.path(),
+    );
+    assert!(err.contains("does not exist"), "{err}");
+    let err = failing(&["render", "ok.toml", "--spp", "0"], dir.path());
+    assert!(err.contains("--spp"), "{err}");
+}

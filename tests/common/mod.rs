@@ -1,0 +1,63 @@
+//! Helpers shared by the rendering tests: load scenes from text, render
+//! them, and compare Monte Carlo estimates with their standard errors.
+#![allow(dead_code)]
+
+use std::path::Path;
+
+use prism::film::Film;
+use prism::render::{render, RenderOptions};
+use prism::scene::{load_str, Scene};
+
+pub fn scene(text: &str) -> Scene {
+    load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A scene file of the repository with its [film] and [integrator] entries
+/// replaced by `film` and `integrator` (TOML tables as text).
+pub fn repo_scene(relative: &str, film: &str, integrator: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(relative);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut table: toml::Table = toml::from_str(&text).unwrap();
+    table.insert(
+        "film".into(),
+        toml::Value::Table(toml::from_str(film).unwrap()),
+    );
+    table.insert(
+        "integrator".into(),
+        toml::Value::Table(toml::from_str(integrator).unwrap()),
+    );
+    load_str(&toml::to_string(&table).unwrap(), path.parent().unwrap())
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn render_film(scene: &Scene, threads: usize) -> Film {
+    let (film, stats) = render(
+        scene,
+        &RenderOptions {
+            threads: Some(threads),
+            ..Default::default()
+        },
+    );
+    assert_eq!(stats.non_finite, 0, "non-finite samples");
+    assert!(!stats.interrupted);
+    film
+}
+
+/// Mean luminance over a pixel rectangle and the variance of that mean.
+pub fn region_mean(film: &Film, x0: u32, y0: u32, x1: u32, y1: u32) -> (f64, f64) {
+    let (mut sum, mut var) = (0.0, 0.0);
+    let n = ((x1 - x0) * (y1 - y0)) as f64;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let (m, v) = film.luminance_and_variance(x, y);
+            sum += m;
+            var += v;
+        }
+    }
+    (sum / n, var / (n * n))
+}
+
+/// How many standard errors apart two independent estimates are.
+pub fn z_score(a: (f64, f64), b: (f64, f64)) -> f64 {
+    (a.0 - b.0).abs() / (a.1 + b.1).sqrt()
+}

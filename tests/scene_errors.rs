@@ -1,0 +1,153 @@
+//! Bad scene files get a clear error naming the file and the key, never a
+//! panic or a silent default.
+
+use std::path::Path;
+
+use prism::scene::{load, load_str};
+
+const CAMERA: &str = "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n";
+
+fn error(text: &str) -> String {
+    match load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn file_error(name: &str, text: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    match load(&path) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn unknown_key_names_key_line_and_file() {
+    let e = file_error("typo.toml", &format!("{CAMERA}[film]\nsamples = 4\n"));
+    assert!(e.contains("typo.toml"), "{e}");
+    assert!(
+        e.contains("unknown field `samples`") && e.contains("spp"),
+        "{e}"
+    );
+    assert!(e.contains("line 5"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_the_key() {
+    let e = error(&format!("{CAMERA}[film]\nspp = \"many\"\n"));
+    assert!(e.contains("invalid type") && e.contains("spp"), "{e}");
+    let e = error("[camera]\nposition = [0, 0]\nlook_at = [0, 0, 0]\n");
+    assert!(e.contains("position") && e.contains("line 2"), "{e}");
+}
+
+#[test]
+fn malformed_toml_gives_line_and_column() {
+    let e = error(&format!("{CAMERA}[film\nspp = 4\n"));
+    assert!(e.contains("line 4") && e.contains("column"), "{e}");
+}
+
+#[test]
+fn missing_files_are_named() {
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"obj\"\nfile = \"nowhere/missing.obj\"\n"
+    ));
+    assert!(
+        e.contains("shape[0].file") && e.contains("missing.obj") && e.contains("does not exist"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{CAMERA}[materials.m]\ntype = \"diffuse\"\nreflectance = {{ file = \"spectra/missing.csv\" }}\n"
+    ));
+    assert!(
+        e.contains("materials.m.reflectance") && e.contains("missing.csv"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"obj\"\nfile = \"scenes\"\n"
+    ));
+    assert!(e.contains("is a directory"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    let e = load(dir.path()).err().unwrap().to_string();
+    assert!(e.contains("is a directory"), "{e}");
+    let e = load(&dir.path().join("absent.toml"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("absent.toml") && e.contains("cannot read"),
+        "{e}"
+    );
+}
+
+#[test]
+fn invalid_values_are_rejected() {
+    let e = error(&format!("{CAMERA}[film]\nspp = 0\n"));
+    assert!(e.contains("film.spp"), "{e}");
+    let e = error(&format!("{CAMERA}[film]\nresolution = [0, 10]\n"));
+    assert!(e.contains("film.resolution"), "{e}");
+    let e = error(&format!("{CAMERA}[film]\nspp = -3\n"));
+    assert!(e.contains("spp"), "{e}");
+    let e = error(&format!("{CAMERA}[film]\nexposure = nan\n"));
+    assert!(e.contains("film.exposure") && e.contains("finite"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = inf\n"
+    ));
+    assert!(e.contains("shape[0].radius") && e.contains("finite"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[materials.m]\ntype = \"diffuse\"\nreflectance = 1.5\n"
+    ));
+    assert!(
+        e.contains("materials.m.reflectance") && e.contains("[0, 1]"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{CAMERA}[materials.m]\ntype = \"diffuse\"\nreflectance = [[500, 0.5], [400, 0.5]]\n"
+    ));
+    assert!(e.contains("increase"), "{e}");
+    let e = error(&format!("{CAMERA}[[shape]]\ntype = \"quad\"\nvertices = [[0,0,0],[1,0,0],[1,1,0],[0,1,0]]\nemission = -1\n"));
+    assert!(
+        e.contains("shape[0].emission") && e.contains("negative"),
+        "{e}"
+    );
+    let e = error("[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, 0]\n");
+    assert!(e.contains("camera.look_at"), "{e}");
+}
+
+#[test]
+fn names_must_resolve() {
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nmaterial = \"gold\"\n"
+    ));
+    assert!(e.contains("shape[0].material") && e.contains("gold"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = \"D66\"\n"
+    ));
+    assert!(e.contains("D66") && e.contains("D65"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nfile = \"x.obj\"\n"
+    ));
+    assert!(
+        e.contains("shape[0].file") && e.contains("does not apply"),
+        "{e}"
+    );
+    let e = error(&format!("{CAMERA}[[shape]]\ntype = \"cube\"\n"));
+    assert!(e.contains("unknown variant `cube`"), "{e}");
+}
+
+#[test]
+fn broken_obj_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("empty.obj"), "").unwrap();
+    std::fs::write(dir.path().join("bad.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();
+    for (name, expect) in [("empty.obj", "no faces"), ("bad.obj", "")] {
+        let text = format!("{CAMERA}[[shape]]\ntype = \"obj\"\nfile = \"{name}\"\n");
+        let e = match load_str(&text, dir.path()) {
+            Ok(_) => panic!("{name} loaded"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains(name) && e.contains(expect), "{e}");
+    }
+}

@@ -1,0 +1,56 @@
+//! Light sampling, BSDF sampling and their MIS combination are three
+//! estimators of the same integral: on the Cornell Box they must agree
+//! within their error bars, region by region.
+
+mod common;
+
+use common::{region_mean, render_film, repo_scene, z_score};
+
+#[test]
+fn nee_bsdf_and_mis_agree_on_the_cornell_box() {
+    let film = "resolution = [32, 32]\nspp = 256\nmax_depth = 6";
+    let films: Vec<_> = ["mis", "nee", "bsdf"]
+        .iter()
+        .map(|s| {
+            let scene = repo_scene(
+                "scenes/cornell-box.toml",
+                film,
+                &format!("strategy = \"{s}\""),
+            );
+            (s, render_film(&scene, 2))
+        })
+        .collect();
+    // 16 blocks × 3 pairs at 4.5σ: a false alarm about once in 3000 runs.
+    for by in 0..4 {
+        for bx in 0..4 {
+            let (x0, y0) = (bx * 8, by * 8);
+            for i in 0..3 {
+                for j in i + 1..3 {
+                    let a = region_mean(&films[i].1, x0, y0, x0 + 8, y0 + 8);
+                    let b = region_mean(&films[j].1, x0, y0, x0 + 8, y0 + 8);
+                    let z = z_score(a, b);
+                    assert!(
+                        z < 4.5,
+                        "block ({bx}, {by}): {} {a:?} vs {} {b:?}: {z:.1}σ",
+                        films[i].0,
+                        films[j].0
+                    );
+                }
+            }
+        }
+    }
+    let whole: Vec<_> = films
+        .iter()
+        .map(|f| region_mean(&f.1, 0, 0, 32, 32))
+        .collect();
+    for i in 0..3 {
+        for j in i + 1..3 {
+            assert!(z_score(whole[i], whole[j]) < 4.0, "{whole:?}");
+        }
+    }
+    // MIS is about as good as the better strategy everywhere (here light
+    // sampling, for diffuse walls and a small light) and far better than the worse.
+    let best = whole[1].1.min(whole[2].1);
+    assert!(whole[0].1 < 1.05 * best, "{whole:?}");
+    assert!(whole[0].1 < 0.5 * whole[2].1, "{whole:?}");
+}
