@@ -1,21 +1,50 @@
 //! A bounding volume hierarchy over triangles, built top-down with the
 //! binned surface area heuristic and flattened depth-first into 32-byte nodes.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec4};
 
 use super::triangle::{self, RayShear, TriangleHit};
 use super::{gamma, Aabb, Ray};
 
-/// A flattened node. Interior: `count == 0`, the first child follows the
-/// node, the second is at `offset`. Leaf: `count` primitives from `offset`.
+/// A flattened node of 32 bytes: two SIMD vectors, the box corners in xyz
+/// and the links in the w lanes (as bits). Interior: `count == 0`, the first
+/// child follows the node, the second is at `offset`. Leaf: `count`
+/// primitives from `offset`.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 struct Node {
-    min: [f32; 3],
-    max: [f32; 3],
-    offset: u32,
-    count: u16,
-    axis: u16,
+    /// xyz: box minimum; w: `offset` as bits.
+    min: Vec4,
+    /// xyz: box maximum; w: `count | axis << 16` as bits.
+    max: Vec4,
+}
+
+impl Node {
+    fn new(bounds: &Aabb, offset: u32, count: u16, axis: u16) -> Self {
+        Self {
+            min: bounds.min.extend(f32::from_bits(offset)),
+            max: bounds
+                .max
+                .extend(f32::from_bits(count as u32 | (axis as u32) << 16)),
+        }
+    }
+
+    fn offset(&self) -> u32 {
+        self.min.w.to_bits()
+    }
+
+    fn count(&self) -> u16 {
+        self.max.w.to_bits() as u16
+    }
+
+    fn axis(&self) -> u16 {
+        (self.max.w.to_bits() >> 16) as u16
+    }
+
+    fn set_interior(&mut self, second_child: u32, axis: u16) {
+        self.min.w = f32::from_bits(second_child);
+        self.max.w = f32::from_bits((axis as u32) << 16);
+    }
 }
 
 pub struct Bvh {
@@ -55,13 +84,7 @@ impl Bvh {
             .collect();
         let mut nodes = Vec::with_capacity(2 * bounds.len().max(1));
         if prims.is_empty() {
-            nodes.push(Node {
-                min: [f32::INFINITY; 3],
-                max: [f32::NEG_INFINITY; 3],
-                offset: 0,
-                count: 0,
-                axis: u16::MAX,
-            });
+            nodes.push(Node::new(&Aabb::EMPTY, 0, 0, u16::MAX));
         } else {
             build_range(&mut prims, 0, 0, &mut nodes);
         }
@@ -72,8 +95,8 @@ impl Bvh {
     pub fn bounds(&self) -> Aabb {
         let n = &self.nodes[0];
         Aabb {
-            min: Vec3::from_array(n.min),
-            max: Vec3::from_array(n.max),
+            min: n.min.truncate(),
+            max: n.max.truncate(),
         }
     }
 
@@ -102,11 +125,12 @@ impl Bvh {
         ray: &Ray,
         tris: &[[Vec3; 3]],
     ) -> Option<(u32, TriangleHit)> {
-        if self.nodes[0].axis == u16::MAX {
+        if self.nodes[0].axis() == u16::MAX {
             return None;
         }
         let shear = RayShear::new(ray);
-        let inv_dir = ray.dir.recip();
+        let inv_dir = Vec3A::from(ray.dir.recip());
+        let origin = Vec3A::from(ray.origin);
         let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
         let mut t_max = ray.t_max;
         let mut closest = None;
@@ -115,10 +139,11 @@ impl Bvh {
         let mut current = 0usize;
         loop {
             let node = &self.nodes[current];
-            if hit_box(node, ray.origin, inv_dir, t_max) {
-                if node.count > 0 {
-                    let start = node.offset as usize;
-                    let leaf = &tris[start..start + node.count as usize];
+            if hit_box(node, origin, inv_dir, t_max) {
+                let count = node.count();
+                if count > 0 {
+                    let start = node.offset() as usize;
+                    let leaf = &tris[start..start + count as usize];
                     for (prim, tri) in (start..).zip(leaf) {
                         if let Some(hit) = triangle::intersect(&shear, tri, t_max) {
                             if ANY_HIT {
@@ -130,10 +155,10 @@ impl Bvh {
                     }
                 } else {
                     // Visit the child on the ray's near side first.
-                    let (near, far) = if negative[node.axis as usize] {
-                        (node.offset as usize, current + 1)
+                    let (near, far) = if negative[node.axis() as usize] {
+                        (node.offset() as usize, current + 1)
                     } else {
-                        (current + 1, node.offset as usize)
+                        (current + 1, node.offset() as usize)
                     };
                     stack[top] = far as u32;
                     top += 1;
@@ -152,9 +177,9 @@ impl Bvh {
 
 /// Slab test, conservative against rounding (the far distance is enlarged by 2γ(3)).
 #[inline]
-fn hit_box(node: &Node, origin: Vec3, inv_dir: Vec3, t_max: f32) -> bool {
-    let t0 = (Vec3::from_array(node.min) - origin) * inv_dir;
-    let t1 = (Vec3::from_array(node.max) - origin) * inv_dir;
+fn hit_box(node: &Node, origin: Vec3A, inv_dir: Vec3A, t_max: f32) -> bool {
+    let t0 = (Vec3A::from_vec4(node.min) - origin) * inv_dir;
+    let t1 = (Vec3A::from_vec4(node.max) - origin) * inv_dir;
     let near = t0.min(t1).max_element().max(0.0);
     let far = t0.max(t1).min_element() * (1.0 + 2.0 * gamma(3));
     near <= far.min(t_max)
@@ -169,13 +194,7 @@ fn build_range(
     let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
     let centroids = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
     let index = nodes.len();
-    nodes.push(Node {
-        min: bounds.min.to_array(),
-        max: bounds.max.to_array(),
-        offset: first as u32,
-        count: prims.len() as u16,
-        axis: 0,
-    });
+    nodes.push(Node::new(&bounds, first as u32, prims.len() as u16, 0));
     let n = prims.len();
     let extent = centroids.diagonal();
     let axis = largest_axis(extent);
@@ -201,9 +220,7 @@ fn build_range(
     let (left, right) = prims.split_at_mut(mid);
     build_range(left, first, depth + 1, nodes);
     let second = build_range(right, first + mid, depth + 1, nodes);
-    nodes[index].offset = second as u32;
-    nodes[index].count = 0;
-    nodes[index].axis = split_axis as u16;
+    nodes[index].set_interior(second as u32, split_axis as u16);
     index
 }
 
