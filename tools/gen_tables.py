@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """Regenerate prism's embedded colorimetric tables from colour-science.
 
-Run from the repository root:  tools/.venv/bin/python tools/gen_tables.py
-Writes spectra/cie_1931_2deg.csv and spectra/cie_*.csv (illuminants). The
-renderer embeds these files at compile time, so provenance is this one command.
+Run from the repository root:  tools/.venv/bin/python tools/gen_tables.py [OUT_DIR]
+Writes spectra/cie_1931_2deg.csv and spectra/cie_*.csv (illuminants), or into
+OUT_DIR. The renderer embeds these files at compile time, so provenance is
+this one command.
 """
 import pathlib
+import sys
 import warnings
 
 import numpy as np
@@ -13,7 +15,7 @@ import numpy as np
 warnings.filterwarnings("ignore")
 import colour  # noqa: E402
 
-OUT = pathlib.Path(__file__).resolve().parent.parent / "spectra"
+OUT = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else pathlib.Path(__file__).resolve().parent.parent / "spectra"
 
 
 def write(name, header, provenance, rows):

@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Runs every test of prism: the Rust suite (unit, rendering and CLI tests)
+# and the colour-science checks under tools/tests. Sets up the Python
+# environment for tools/ on first use (tools/.venv, pinned requirements).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+cargo test
+
+venv=tools/.venv
+if [ ! -x "$venv/bin/python" ] || ! cmp -s tools/requirements.txt "$venv/.requirements"; then
+    python3 -m venv "$venv"
+    "$venv/bin/python" -m pip install --quiet --upgrade pip
+    "$venv/bin/python" -m pip install --quiet -r tools/requirements.txt
+    cp tools/requirements.txt "$venv/.requirements"
+fi
+"$venv/bin/python" -m pytest -q tools/tests
