@@ -89,9 +89,12 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
         let bar = ProgressBar::new(total);
         bar.set_style(
             ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}%  {human_pos}/{human_len} samples  {per_sec}  ETA {eta}",
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}%  {human_pos}/{human_len} samples  {rate}  ETA {eta}",
             )
-            .expect("valid template"),
+            .expect("valid template")
+            .with_key("rate", |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                let _ = write!(w, "{:.2} M samples/s", state.per_sec() / 1e6);
+            }),
         );
         bar
     } else {
