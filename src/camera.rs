@@ -52,6 +52,13 @@ impl Camera {
         )
     }
 
+    /// The same camera for another image size (the vertical field of view is kept).
+    pub fn with_resolution(mut self, width: u32, height: u32) -> Self {
+        self.width = width;
+        self.height = height;
+        self
+    }
+
     pub fn resolution(&self) -> (u32, u32) {
         (self.width, self.height)
     }

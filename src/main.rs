@@ -8,7 +8,7 @@ use std::sync::Arc;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
-use prism::film::output;
+use prism::film::{output, spectral_exr};
 use prism::render::{render, RenderOptions};
 use prism::scene::{self, Strategy, Tonemap};
 
@@ -22,16 +22,21 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a TOML scene to OpenEXR (linear sRGB) and PNG (sRGB, tone mapped).
+    /// Render a TOML scene to OpenEXR (linear sRGB), PNG (sRGB, tone mapped)
+    /// and spectral OpenEXR (Fichet 2021 layout, NAME.spectral.exr).
     ///
     /// Example: prism render scenes/cornell-box.toml --spp 256
     Render {
         /// The scene file (TOML).
         scene: PathBuf,
-        /// Output path without extension (or with .exr/.png); NAME.exr and
-        /// NAME.png are written. Default: next to the scene, named like it.
+        /// Output path without extension (or with .exr/.png); NAME.exr,
+        /// NAME.png and NAME.spectral.exr are written. Default: next to the
+        /// scene, named like it.
         #[arg(short, long, value_name = "PATH")]
         output: Option<PathBuf>,
+        /// Image size as WIDTHxHEIGHT (overrides film.resolution).
+        #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+        resolution: Option<(u32, u32)>,
         /// Samples per pixel (overrides the scene's film.spp).
         #[arg(long, value_name = "N")]
         spp: Option<u32>,
@@ -50,10 +55,48 @@ enum Command {
         /// Direct-lighting strategy (overrides integrator.strategy).
         #[arg(long, value_enum)]
         strategy: Option<StrategyArg>,
+        /// Wavelength range of the spectral buckets in nm, as MIN,MAX
+        /// (overrides film.spectral_range).
+        #[arg(long, value_name = "MIN,MAX", value_parser = parse_range)]
+        spectral_range: Option<[f32; 2]>,
+        /// Number of spectral buckets (overrides film.spectral_buckets).
+        #[arg(long, value_name = "N")]
+        spectral_buckets: Option<u32>,
+        /// Do not write the spectral OpenEXR (NAME.spectral.exr).
+        #[arg(long)]
+        no_spectral: bool,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
+    Info {
+        /// The file (a spectral EXR of prism's or anyone's, or a plain RGB EXR).
+        file: PathBuf,
+    },
+}
+
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let parsed = s
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
+    match parsed {
+        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(format!(
+            "expected WIDTHxHEIGHT with positive numbers, found `{s}`"
+        )),
+    }
+}
+
+fn parse_range(s: &str) -> Result<[f32; 2], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    match parts[..] {
+        [a, b] => match (a.trim().parse::<f32>(), b.trim().parse::<f32>()) {
+            (Ok(a), Ok(b)) => Ok([a, b]),
+            _ => Err(format!("expected two numbers MIN,MAX, found `{s}`")),
+        },
+        _ => Err(format!("expected MIN,MAX, found `{s}`")),
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -112,12 +155,16 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Render {
             scene: scene_path,
             output,
+            resolution,
             spp,
             threads,
             seed,
             exposure,
             tonemap,
             strategy,
+            spectral_range,
+            spectral_buckets,
+            no_spectral,
             quiet,
         } => {
             let load_start = std::time::Instant::now();
@@ -128,6 +175,25 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     StrategyArg::Nee => Strategy::Nee,
                     StrategyArg::Bsdf => Strategy::Bsdf,
                 };
+            }
+            if let Some((w, h)) = resolution {
+                scene.settings.width = w;
+                scene.settings.height = h;
+                scene.camera = scene.camera.clone().with_resolution(w, h);
+            }
+            if let Some(r) = spectral_range {
+                scene.settings.spectral_range = r;
+            }
+            if let Some(n) = spectral_buckets {
+                scene.settings.spectral_buckets = n;
+            }
+            scene::check_spectral_layout(
+                scene.settings.spectral_range,
+                scene.settings.spectral_buckets,
+            )
+            .map_err(|e| anyhow::anyhow!("`--{}", e.replace('_', "-")))?;
+            if no_spectral {
+                scene.settings.spectral_output = false;
             }
             if spp == Some(0) {
                 bail!("--spp must be at least 1");
@@ -197,11 +263,88 @@ fn run(cli: Cli) -> Result<ExitCode> {
             output::write_exr(&film, &exr)?;
             output::write_png(&film, &png, exposure, tonemap)?;
             eprintln!("wrote {} and {}", exr.display(), png.display());
+            if scene.settings.spectral_output {
+                let spectral = stem.with_extension("spectral.exr");
+                let seed = seed.unwrap_or(scene.settings.seed);
+                let extra = [
+                    ("prismScene", scene_path.display().to_string()),
+                    ("prismSeed", seed.to_string()),
+                    ("prismMinSamplesPerPixel", film.min_samples().to_string()),
+                ];
+                spectral_exr::write(&film, &spectral, &extra)?;
+                eprintln!("wrote {}", spectral.display());
+            }
             Ok(if stats.interrupted {
                 ExitCode::from(130)
             } else {
                 ExitCode::SUCCESS
             })
         }
+        Command::Info { file } => {
+            print!("{}", describe(&file)?);
+            Ok(ExitCode::SUCCESS)
+        }
     }
+}
+
+/// The report of `prism info`.
+fn describe(file: &Path) -> Result<String> {
+    use std::fmt::Write;
+    let img = spectral_exr::read(file)?;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{}: {} x {} pixels",
+        file.display(),
+        img.width,
+        img.height
+    );
+    for (k, v) in &img.attributes {
+        let _ = writeln!(out, "  {k} = {v}");
+    }
+    let stats = |values: &[f32]| {
+        let finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
+        let mean = finite.iter().map(|&v| v as f64).sum::<f64>() / finite.len().max(1) as f64;
+        let min = finite.iter().copied().fold(f32::INFINITY, f32::min);
+        let max = finite.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        (min, max, mean, values.len() - finite.len())
+    };
+    if img.wavelengths.is_empty() {
+        let _ = writeln!(out, "no spectral channels");
+    } else {
+        let n = img.wavelengths.len();
+        let (first, last) = (img.wavelengths[0], img.wavelengths[n - 1]);
+        let spacing = if n > 1 {
+            (last - first) / (n - 1) as f64
+        } else {
+            0.0
+        };
+        let _ = writeln!(
+            out,
+            "spectral (emissive S0): {n} channels, centres {first:.3}-{last:.3} nm, spacing {spacing:.3} nm"
+        );
+        let _ = writeln!(
+            out,
+            "  {:>12}  {:>12}  {:>12}  {:>12}",
+            "nm", "min", "mean", "max"
+        );
+        let mut bad = 0;
+        for (lambda, plane) in img.wavelengths.iter().zip(&img.spectral) {
+            let (min, max, mean, non_finite) = stats(plane);
+            bad += non_finite;
+            let _ = writeln!(
+                out,
+                "  {lambda:>12.3}  {min:>12.6}  {mean:>12.6}  {max:>12.6}"
+            );
+        }
+        let _ = writeln!(out, "  non-finite spectral values: {bad}");
+    }
+    for (name, plane) in &img.other {
+        let (min, max, mean, non_finite) = stats(plane);
+        let _ = writeln!(
+            out,
+            "channel {name}: min {min:.6}, mean {mean:.6}, max {max:.6}, non-finite {non_finite}"
+        );
+    }
+    Ok(out)
 }

@@ -6,6 +6,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 cargo test
+# The colour-science checks run the release binary.
+cargo build --release
 
 venv=tools/.venv
 if [ ! -x "$venv/bin/python" ] || ! cmp -s tools/requirements.txt "$venv/.requirements"; then
@@ -14,4 +16,4 @@ if [ ! -x "$venv/bin/python" ] || ! cmp -s tools/requirements.txt "$venv/.requir
     "$venv/bin/python" -m pip install --quiet -r tools/requirements.txt
     cp tools/requirements.txt "$venv/.requirements"
 fi
-"$venv/bin/python" -m pytest -q tools/tests
+"$venv/bin/python" -m pytest -q -c tools/pytest.ini tools/tests

@@ -3,6 +3,7 @@
 //! an interrupted render is still an unbiased image.
 
 pub mod output;
+pub mod spectral_exr;
 
 use glam::{DVec3, Vec3};
 
@@ -49,8 +50,10 @@ pub struct FilmTile {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<PixelSums>,
-    /// `pixels.len() × layout.count` sums of spectral radiance per nm.
-    pub buckets: Vec<f32>,
+    /// Spectral contributions (pixel in the tile, bucket, radiance per nm),
+    /// in sample order. Sparse: a sample touches at most four buckets, and a
+    /// film may have hundreds.
+    pub spectral: Vec<(u32, u32, f32)>,
     layout: SpectralLayout,
 }
 
@@ -63,7 +66,7 @@ impl FilmTile {
             width,
             height,
             pixels: vec![PixelSums::default(); n],
-            buckets: vec![0.0; n * layout.count as usize],
+            spectral: Vec::new(),
             layout,
         }
     }
@@ -77,12 +80,12 @@ impl FilmTile {
         px.xyz += xyz;
         px.y_squared += xyz.y * xyz.y;
         px.samples += 1;
-        let n = self.layout.count as usize;
         let per_nm = 1.0 / (4.0 * self.layout.width());
         for k in 0..4 {
             if wl.pdf[k] > 0.0 {
                 if let Some(b) = self.layout.bucket(wl.lambda[k]) {
-                    self.buckets[i * n + b] += l[k] / wl.pdf[k] * per_nm;
+                    self.spectral
+                        .push((i as u32, b as u32, l[k] / wl.pdf[k] * per_nm));
                 }
             }
         }
@@ -117,19 +120,17 @@ impl Film {
     }
 
     pub fn add_tile(&mut self, tile: &FilmTile) {
+        let film_index =
+            |i: u32| ((tile.y0 + i / tile.width) * self.width + tile.x0 + i % tile.width) as usize;
+        for (i, b) in tile.pixels.iter().enumerate() {
+            let a = &mut self.pixels[film_index(i as u32)];
+            a.xyz += b.xyz;
+            a.y_squared += b.y_squared;
+            a.samples += b.samples;
+        }
         let n = self.layout.count as usize;
-        for ty in 0..tile.height {
-            for tx in 0..tile.width {
-                let src = (ty * tile.width + tx) as usize;
-                let dst = ((tile.y0 + ty) * self.width + tile.x0 + tx) as usize;
-                let (a, b) = (&mut self.pixels[dst], &tile.pixels[src]);
-                a.xyz += b.xyz;
-                a.y_squared += b.y_squared;
-                a.samples += b.samples;
-                for k in 0..n {
-                    self.buckets[dst * n + k] += tile.buckets[src * n + k];
-                }
-            }
+        for &(i, bucket, v) in &tile.spectral {
+            self.buckets[film_index(i) * n + bucket as usize] += v;
         }
     }
 
@@ -218,9 +219,11 @@ mod tests {
         let mut wl = SampledWavelengths::sample_visible(0.4);
         wl.terminate_secondary();
         tile.add_sample(0, 0, SampledSpectrum::ONE, &wl);
-        let nonzero = tile.buckets.iter().filter(|&&v| v != 0.0).count();
-        assert_eq!(nonzero, 1);
+        let mut film = Film::new(1, 1, layout);
+        film.add_tile(&tile);
+        let spectrum = film.spectrum(0, 0);
+        assert_eq!(spectrum.iter().filter(|&&v| v != 0.0).count(), 1);
         let b = layout.bucket(wl.lambda.x).unwrap();
-        assert!((tile.buckets[b] - 1.0 / wl.pdf.x / 4.0 / 10.0).abs() < 1e-6);
+        assert!((spectrum[b] - 1.0 / wl.pdf.x / 4.0 / 10.0).abs() < 1e-6);
     }
 }

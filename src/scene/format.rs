@@ -68,6 +68,8 @@ pub struct FilmSpec {
     pub spectral_range: [f32; 2],
     /// Number of equal-width spectral buckets over `spectral_range`.
     pub spectral_buckets: u32,
+    /// Write the spectral OpenEXR (NAME.spectral.exr) next to the RGB files.
+    pub spectral: bool,
 }
 
 impl Default for FilmSpec {
@@ -81,6 +83,7 @@ impl Default for FilmSpec {
             tonemap: Tonemap::Clamp,
             spectral_range: [380.0, 780.0],
             spectral_buckets: 40,
+            spectral: true,
         }
     }
 }

@@ -170,18 +170,8 @@ impl Loader {
         if f.spp == 0 {
             return Err(self.error("`film.spp` must be at least 1"));
         }
-        let [lo, hi] = f.spectral_range;
-        if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lo)
-            || !(LAMBDA_MIN..=LAMBDA_MAX).contains(&hi)
-            || lo >= hi
-        {
-            return Err(self.error(format!(
-                "`film.spectral_range` must be an increasing pair within [{LAMBDA_MIN}, {LAMBDA_MAX}] nm, found [{lo}, {hi}]"
-            )));
-        }
-        if f.spectral_buckets == 0 || f.spectral_buckets > 4096 {
-            return Err(self.error("`film.spectral_buckets` must be between 1 and 4096"));
-        }
+        check_spectral_layout(f.spectral_range, f.spectral_buckets)
+            .map_err(|e| self.error(format!("`film.{e}")))?;
         Ok(RenderSettings {
             width,
             height,
@@ -194,6 +184,7 @@ impl Loader {
             tonemap: f.tonemap,
             spectral_range: f.spectral_range,
             spectral_buckets: f.spectral_buckets,
+            spectral_output: f.spectral,
         })
     }
 
@@ -473,6 +464,25 @@ impl Loader {
         }
         Ok(m)
     }
+}
+
+/// Checks a film's spectral bucket layout; the message starts with the key.
+pub fn check_spectral_layout(range: [f32; 2], buckets: u32) -> Result<(), String> {
+    let [lo, hi] = range;
+    if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lo)
+        || !(LAMBDA_MIN..=LAMBDA_MAX).contains(&hi)
+        || lo >= hi
+    {
+        return Err(format!(
+            "spectral_range` must be an increasing pair within [{LAMBDA_MIN}, {LAMBDA_MAX}] nm, found [{lo}, {hi}]"
+        ));
+    }
+    if buckets == 0 || buckets > 4096 {
+        return Err(format!(
+            "spectral_buckets` must be between 1 and 4096, found {buckets}"
+        ));
+    }
+    Ok(())
 }
 
 /// Scales an illuminant so that its luminance (CIE Y, as the film computes it) is 1.

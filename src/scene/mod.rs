@@ -9,7 +9,7 @@ pub mod spectrum_spec;
 use glam::Vec3;
 
 pub use format::{Strategy, Tonemap};
-pub use load::{load, load_str, SceneError};
+pub use load::{check_spectral_layout, load, load_str, SceneError};
 pub use mesh::Mesh;
 
 use crate::camera::Camera;
@@ -32,6 +32,7 @@ pub struct RenderSettings {
     pub tonemap: Tonemap,
     pub spectral_range: [f32; 2],
     pub spectral_buckets: u32,
+    pub spectral_output: bool,
 }
 
 /// Light emitted by a shape.
