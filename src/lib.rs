@@ -14,6 +14,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod merge;
 pub mod render;
 pub mod sampler;
 pub mod scene;

@@ -38,8 +38,16 @@ enum Command {
         #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
         resolution: Option<(u32, u32)>,
         /// Samples per pixel (overrides the scene's film.spp).
-        #[arg(long, value_name = "N")]
+        #[arg(long, value_name = "N", conflicts_with = "samples")]
         spp: Option<u32>,
+        /// Render exactly the sample indices START..END (END exclusive) of
+        /// every pixel, for merging later with `prism merge`.
+        #[arg(long, value_name = "START..END", value_parser = parse_samples)]
+        samples: Option<std::ops::Range<u32>>,
+        /// Render only the pixels X0..X1 × Y0..Y1 (X1, Y1 exclusive); the
+        /// rest of the image gets no samples. For merging with `prism merge`.
+        #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_tile)]
+        tile: Option<[u32; 4]>,
         /// Worker threads (default: all cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
@@ -69,11 +77,42 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Merge partial renders (spectral EXRs from `render --samples/--tile`)
+    /// into one image: OUT.spectral.exr, OUT.exr and OUT.png.
+    ///
+    /// Parts must come from the same scene, seed, resolution and spectral
+    /// layout, and no two may hold the same sample of the same pixel.
+    Merge {
+        /// The partial renders (NAME.spectral.exr files).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output path without extension.
+        #[arg(short, long, value_name = "PATH")]
+        output: PathBuf,
+        /// Exposure of the PNG in stops.
+        #[arg(
+            long,
+            value_name = "STOPS",
+            allow_hyphen_values = true,
+            default_value_t = 0.0
+        )]
+        exposure: f32,
+    },
     /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
     Info {
         /// The file (a spectral EXR of prism's or anyone's, or a plain RGB EXR).
         file: PathBuf,
     },
+}
+
+fn parse_samples(s: &str) -> Result<std::ops::Range<u32>, String> {
+    prism::merge::parse_sample_range(s)
+        .ok_or_else(|| format!("expected START..END with START < END, found `{s}`"))
+}
+
+fn parse_tile(s: &str) -> Result<[u32; 4], String> {
+    prism::merge::parse_region(s)
+        .ok_or_else(|| format!("expected X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1, found `{s}`"))
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
@@ -134,6 +173,14 @@ fn output_stem(scene: &Path, output: Option<PathBuf>) -> PathBuf {
     }
 }
 
+/// `stem` + "." + `ext`, keeping any dots already in the stem (`out.part3`).
+fn suffixed(stem: &Path, ext: &str) -> PathBuf {
+    let mut s = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
 /// Fails early, before any rendering, if the output folder cannot take files.
 fn check_writable(stem: &Path) -> Result<()> {
     let dir = match stem.parent() {
@@ -157,6 +204,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             output,
             resolution,
             spp,
+            samples,
+            tile,
             threads,
             seed,
             exposure,
@@ -193,7 +242,23 @@ fn run(cli: Cli) -> Result<ExitCode> {
             )
             .map_err(|e| anyhow::anyhow!("`--{}", e.replace('_', "-")))?;
             if no_spectral {
+                if samples.is_some() || tile.is_some() {
+                    bail!("--samples and --tile write a partial spectral EXR for `prism merge`: drop --no-spectral");
+                }
                 scene.settings.spectral_output = false;
+            }
+            if let Some(t) = tile {
+                if t[2] > scene.settings.width || t[3] > scene.settings.height {
+                    bail!(
+                        "--tile {},{},{},{} reaches outside the {}x{} image",
+                        t[0],
+                        t[1],
+                        t[2],
+                        t[3],
+                        scene.settings.width,
+                        scene.settings.height
+                    );
+                }
             }
             if spp == Some(0) {
                 bail!("--spp must be at least 1");
@@ -225,8 +290,14 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 })
                 .context("cannot install the Ctrl-C handler")?;
             }
+            let sample_range = samples
+                .clone()
+                .unwrap_or(0..spp.unwrap_or(scene.settings.spp));
+            let region = tile.unwrap_or([0, 0, scene.settings.width, scene.settings.height]);
             let options = RenderOptions {
                 spp,
+                samples,
+                region: Some(region),
                 seed,
                 threads,
                 progress: !quiet,
@@ -258,19 +329,34 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 Some(TonemapArg::Reinhard) => Tonemap::Reinhard,
                 None => scene.settings.tonemap,
             };
-            let exr = stem.with_extension("exr");
-            let png = stem.with_extension("png");
+            let exr = suffixed(&stem, "exr");
+            let png = suffixed(&stem, "png");
             output::write_exr(&film, &exr)?;
             output::write_png(&film, &png, exposure, tonemap)?;
             eprintln!("wrote {} and {}", exr.display(), png.display());
             if scene.settings.spectral_output {
-                let spectral = stem.with_extension("spectral.exr");
+                let spectral = suffixed(&stem, "spectral.exr");
                 let seed = seed.unwrap_or(scene.settings.seed);
-                let extra = [
+                let scene_bytes = std::fs::read(&scene_path).unwrap_or_default();
+                let mut extra = vec![
                     ("prismScene", scene_path.display().to_string()),
-                    ("prismSeed", seed.to_string()),
-                    ("prismMinSamplesPerPixel", film.min_samples().to_string()),
+                    (
+                        prism::merge::ATTR_SCENE_HASH,
+                        prism::merge::scene_hash(&scene_bytes),
+                    ),
+                    (prism::merge::ATTR_SEED, seed.to_string()),
+                    (
+                        prism::merge::ATTR_SAMPLES,
+                        format!("{}..{}", sample_range.start, sample_range.end),
+                    ),
+                    (
+                        prism::merge::ATTR_REGION,
+                        region.map(|v| v.to_string()).join(","),
+                    ),
                 ];
+                if stats.interrupted {
+                    extra.push(("prismInterrupted", "true".into()));
+                }
                 spectral_exr::write(&film, &spectral, &extra)?;
                 eprintln!("wrote {}", spectral.display());
             }
@@ -279,6 +365,48 @@ fn run(cli: Cli) -> Result<ExitCode> {
             } else {
                 ExitCode::SUCCESS
             })
+        }
+        Command::Merge {
+            parts,
+            output,
+            exposure,
+        } => {
+            let images = parts
+                .iter()
+                .map(|p| Ok((p.clone(), spectral_exr::read(p)?)))
+                .collect::<Result<Vec<_>>>()?;
+            for (p, img) in &images {
+                if img.attributes.contains_key("prismInterrupted") {
+                    eprintln!("warning: {} is an interrupted render: it holds fewer samples than its range", p.display());
+                }
+            }
+            let merged = prism::merge::merge(&images)?;
+            let stem = output_stem(Path::new(""), Some(output));
+            check_writable(&stem)?;
+            let spectral = suffixed(&stem, "spectral.exr");
+            spectral_exr::write_image(&merged, &spectral)?;
+            let rgb: Vec<glam::Vec3> = (0..merged.width * merged.height)
+                .map(|i| {
+                    glam::Vec3::new(
+                        merged.other["R"][i],
+                        merged.other["G"][i],
+                        merged.other["B"][i],
+                    )
+                })
+                .collect();
+            let (w, h) = (merged.width as u32, merged.height as u32);
+            let (exr, png) = (suffixed(&stem, "exr"), suffixed(&stem, "png"));
+            output::write_rgb_exr(&rgb, w, h, &exr)?;
+            output::write_rgb_png(&rgb, w, h, &png, exposure, Tonemap::Clamp)?;
+            eprintln!(
+                "merged {} parts (samples {}): wrote {}, {} and {}",
+                parts.len(),
+                merged.attributes[prism::merge::ATTR_SAMPLES],
+                spectral.display(),
+                exr.display(),
+                png.display()
+            );
+            Ok(ExitCode::SUCCESS)
         }
         Command::Info { file } => {
             print!("{}", describe(&file)?);

@@ -2,6 +2,7 @@
 //! passes of a few samples per pixel so that a progress bar can tell the
 //! time left and an interruption leaves every pixel with whole samples.
 
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -21,6 +22,11 @@ const TILE_SIZE: u32 = 16;
 pub struct RenderOptions {
     /// Samples per pixel; the scene's when None.
     pub spp: Option<u32>,
+    /// Render exactly these sample indices of every pixel (instead of
+    /// 0..spp), for splitting a render across processes or machines.
+    pub samples: Option<Range<u32>>,
+    /// Render only the pixels in [x0, x1) × [y0, y1); the others get no samples.
+    pub region: Option<[u32; 4]>,
     /// Seed; the scene's when None.
     pub seed: Option<u64>,
     /// Worker threads; all cores when None.
@@ -59,32 +65,28 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats) {
 
 fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats) {
     let s = &scene.settings;
-    let spp = options.spp.unwrap_or(s.spp);
+    let samples = options
+        .samples
+        .clone()
+        .unwrap_or(0..options.spp.unwrap_or(s.spp));
     let seed = options.seed.unwrap_or(s.seed);
+    let [rx0, ry0, rx1, ry1] = options.region.unwrap_or([0, 0, s.width, s.height]);
+    let (rx1, ry1) = (rx1.min(s.width), ry1.min(s.height));
     let layout = SpectralLayout {
         min: s.spectral_range[0],
         max: s.spectral_range[1],
         count: s.spectral_buckets,
     };
     let mut film = Film::new(s.width, s.height, layout);
-    let tiles: Vec<(u32, u32, u32, u32)> = (0..s.height)
+    let tiles: Vec<(u32, u32, u32, u32)> = (ry0..ry1)
         .step_by(TILE_SIZE as usize)
-        .flat_map(|y| {
-            (0..s.width)
-                .step_by(TILE_SIZE as usize)
-                .map(move |x| (x, y))
-        })
-        .map(|(x, y)| {
-            (
-                x,
-                y,
-                TILE_SIZE.min(s.width - x),
-                TILE_SIZE.min(s.height - y),
-            )
-        })
+        .flat_map(|y| (rx0..rx1).step_by(TILE_SIZE as usize).map(move |x| (x, y)))
+        .map(|(x, y)| (x, y, TILE_SIZE.min(rx1 - x), TILE_SIZE.min(ry1 - y)))
         .collect();
 
-    let total = s.width as u64 * s.height as u64 * spp as u64;
+    let spp = samples.len() as u32;
+    let pixels = rx1.saturating_sub(rx0) as u64 * ry1.saturating_sub(ry0) as u64;
+    let total = pixels * spp as u64;
     let bar = if options.progress {
         let bar = ProgressBar::new(total);
         bar.set_style(
@@ -113,9 +115,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     // Passes of a sixteenth of the samples (at most 16 each) keep the progress
     // bar moving and bound how much work an interruption waits for.
     let pass = spp.div_ceil(16).clamp(1, 16);
-    let mut first = 0;
-    while first < spp && !cancelled() {
-        let range = first..(first + pass).min(spp);
+    let mut first = samples.start;
+    while first < samples.end && !cancelled() {
+        let range = first..(first + pass).min(samples.end);
         let results: Vec<FilmTile> = tiles
             .par_iter()
             .filter_map(|&(x0, y0, w, h)| {

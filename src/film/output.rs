@@ -33,10 +33,14 @@ fn temp_name(path: &Path) -> PathBuf {
 
 /// Linear sRGB radiance as a float32 RGB OpenEXR.
 pub fn write_exr(film: &Film, path: &Path) -> Result<()> {
-    let rgb = film.linear_srgb();
-    let w = film.width as usize;
+    write_rgb_exr(&film.linear_srgb(), film.width, film.height, path)
+}
+
+/// Row-major linear sRGB pixels as a float32 RGB OpenEXR.
+pub fn write_rgb_exr(rgb: &[Vec3], width: u32, height: u32, path: &Path) -> Result<()> {
+    let w = width as usize;
     write_atomically(path, |tmp| {
-        exr::prelude::write_rgb_file(tmp, w, film.height as usize, |x, y| {
+        exr::prelude::write_rgb_file(tmp, w, height as usize, |x, y| {
             let c = rgb[y * w + x];
             (c.x, c.y, c.z)
         })
@@ -55,16 +59,35 @@ pub fn tonemap(c: Vec3, exposure: f32, op: Tonemap) -> Vec3 {
 
 /// sRGB-encoded 8-bit PNG after exposure (stops) and tone mapping.
 pub fn write_png(film: &Film, path: &Path, exposure: f32, op: Tonemap) -> Result<()> {
-    let bytes: Vec<u8> = film
-        .linear_srgb()
-        .into_iter()
+    write_rgb_png(
+        &film.linear_srgb(),
+        film.width,
+        film.height,
+        path,
+        exposure,
+        op,
+    )
+}
+
+/// Row-major linear sRGB pixels as an sRGB-encoded 8-bit PNG.
+pub fn write_rgb_png(
+    rgb: &[Vec3],
+    width: u32,
+    height: u32,
+    path: &Path,
+    exposure: f32,
+    op: Tonemap,
+) -> Result<()> {
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .copied()
         .flat_map(|c| {
             let t = tonemap(c, exposure, op);
             [t.x, t.y, t.z].map(|v| (srgb_encode(v) * 255.0 + 0.5).clamp(0.0, 255.0) as u8)
         })
         .collect();
     write_atomically(path, |tmp| {
-        image::save_buffer(tmp, &bytes, film.width, film.height, image::ColorType::Rgb8)
+        image::save_buffer(tmp, &bytes, width, height, image::ColorType::Rgb8)
             .with_context(|| format!("cannot write {}", tmp.display()))
     })
 }

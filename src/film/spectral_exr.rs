@@ -82,48 +82,91 @@ pub fn parse_channel_name(name: &str) -> Option<f64> {
     (nm.is_finite() && nm > 0.0).then_some(nm)
 }
 
-/// Writes the film's spectral buckets and an RGB preview (linear sRGB).
-pub fn write(film: &Film, path: &Path, extra: &[(&str, String)]) -> Result<()> {
-    let (w, h) = (film.width as usize, film.height as usize);
-    let n = film.layout.count as usize;
-    let mut planes = vec![vec![0.0f32; w * h]; n];
-    for y in 0..film.height {
-        for x in 0..film.width {
-            let i = y as usize * w + x as usize;
-            for (b, v) in film.spectrum(x, y).into_iter().enumerate() {
-                planes[b][i] = v;
+/// Name of the channel holding each pixel's sample count (prism's own; it
+/// lets partial renders be merged exactly).
+pub const SAMPLE_COUNT: &str = "sampleCount";
+
+impl SpectralImage {
+    /// The film as a spectral image: bucket means, the RGB preview (linear
+    /// sRGB), per-pixel sample counts, and the given text attributes.
+    pub fn from_film(film: &Film, attributes: &[(&str, String)]) -> Self {
+        let (w, h) = (film.width as usize, film.height as usize);
+        let n = film.layout.count as usize;
+        let mut spectral = vec![vec![0.0f32; w * h]; n];
+        let mut counts = vec![0.0f32; w * h];
+        for y in 0..film.height {
+            for x in 0..film.width {
+                let i = y as usize * w + x as usize;
+                for (b, v) in film.spectrum(x, y).into_iter().enumerate() {
+                    spectral[b][i] = v;
+                }
+                counts[i] = film.sums(x, y).samples as f32;
             }
         }
+        let rgb = film.linear_srgb();
+        let mut other = BTreeMap::new();
+        for (k, name) in ["R", "G", "B"].iter().enumerate() {
+            other.insert(name.to_string(), rgb.iter().map(|c| c[k]).collect());
+        }
+        other.insert(SAMPLE_COUNT.to_string(), counts);
+        let wavelengths: Vec<f64> = (0..n as u32)
+            .map(|b| film.layout.centre(b) as f64)
+            .collect();
+        let mut attrs = BTreeMap::new();
+        attrs.insert("spectralLayoutVersion".to_string(), "1.0".to_string());
+        attrs.insert("emissiveUnits".to_string(), "W.m^-2.sr^-1".to_string());
+        for (k, v) in attributes {
+            attrs.insert(k.to_string(), v.clone());
+        }
+        Self {
+            width: w,
+            height: h,
+            names: wavelengths.iter().map(|&l| channel_name(l)).collect(),
+            wavelengths,
+            spectral,
+            other,
+            attributes: attrs,
+        }
     }
-    let rgb = film.linear_srgb();
-    let mut channels: Vec<AnyChannel<FlatSamples>> = planes
-        .into_iter()
-        .enumerate()
-        .map(|(b, plane)| {
-            let name = channel_name(film.layout.centre(b as u32) as f64);
-            AnyChannel::new(name.as_str(), FlatSamples::F32(plane))
-        })
+}
+
+/// Writes the film's spectral buckets, RGB preview and sample counts.
+pub fn write(film: &Film, path: &Path, attributes: &[(&str, String)]) -> Result<()> {
+    write_image(&SpectralImage::from_film(film, attributes), path)
+}
+
+/// Writes a spectral image as float32 channels with its text attributes.
+pub fn write_image(img: &SpectralImage, path: &Path) -> Result<()> {
+    let mut channels: Vec<AnyChannel<FlatSamples>> = img
+        .names
+        .iter()
+        .zip(&img.spectral)
+        .map(|(name, plane)| AnyChannel::new(name.as_str(), FlatSamples::F32(plane.clone())))
         .collect();
-    for (k, name) in ["R", "G", "B"].iter().enumerate() {
+    for (name, plane) in &img.other {
         channels.push(AnyChannel::new(
-            *name,
-            FlatSamples::F32(rgb.iter().map(|c| c[k]).collect()),
+            name.as_str(),
+            FlatSamples::F32(plane.clone()),
         ));
     }
-    let mut attributes = LayerAttributes::default();
-    let mut text = |k: &str, v: &str| {
-        attributes
-            .other
-            .insert(Text::from(k), AttributeValue::Text(Text::from(v)));
+    // EXR text is ASCII-safe here: anything else (say, in a file name) becomes '?'.
+    let text = |s: &str| {
+        Text::from(
+            s.chars()
+                .map(|c| if c.is_ascii() { c } else { '?' })
+                .collect::<String>()
+                .as_str(),
+        )
     };
-    text("spectralLayoutVersion", "1.0");
-    text("emissiveUnits", "W.m^-2.sr^-1");
-    for (k, v) in extra {
-        text(k, v);
+    let mut layer_attributes = LayerAttributes::default();
+    for (k, v) in &img.attributes {
+        layer_attributes
+            .other
+            .insert(text(k), AttributeValue::Text(text(v)));
     }
     let layer = Layer::new(
-        (w, h),
-        attributes,
+        (img.width, img.height),
+        layer_attributes,
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(channels.into_iter().collect()),
     );

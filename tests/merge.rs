@@ -1,0 +1,169 @@
+//! Splitting a render by sample range and by region, then merging, gives the
+//! single render of all the samples (up to float32 rounding of the stored
+//! means); parts that do not belong together are refused.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use prism::film::spectral_exr::{self, SpectralImage, SAMPLE_COUNT};
+
+fn prism(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap()
+}
+
+fn ok(args: &[&str]) {
+    let out = prism(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+const SCENE: &str = "scenes/cornell-box.toml";
+
+fn render(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
+    let stem = dir.join(name);
+    let mut args = vec![
+        "render",
+        SCENE,
+        "-q",
+        "--resolution",
+        "40x24",
+        "-o",
+        stem.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    ok(&args);
+    stem.with_extension("spectral.exr")
+}
+
+/// Largest difference between two images: spectral values relative to
+/// themselves, RGB relative to the pixel's largest component (R, G and B mix
+/// XYZ with negative weights, so a component near zero carries the rounding
+/// of its larger neighbours).
+fn max_relative_difference(a: &SpectralImage, b: &SpectralImage) -> f64 {
+    let mut worst = 0.0f64;
+    for (pa, pb) in a.spectral.iter().zip(&b.spectral) {
+        for (x, y) in pa.iter().zip(pb) {
+            let (x, y) = (*x as f64, *y as f64);
+            if x != y {
+                worst = worst.max((x - y).abs() / x.abs().max(y.abs()));
+            }
+        }
+    }
+    for i in 0..a.width * a.height {
+        let scale = ["R", "G", "B"]
+            .iter()
+            .map(|c| a.other[*c][i].abs())
+            .fold(0.0f32, f32::max) as f64;
+        for c in ["R", "G", "B"] {
+            let (x, y) = (a.other[c][i] as f64, b.other[c][i] as f64);
+            if x != y {
+                worst = worst.max((x - y).abs() / scale);
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn merged_sample_ranges_and_tiles_equal_the_single_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let single = spectral_exr::read(&render(dir.path(), "single", &["--spp", "8"])).unwrap();
+
+    let parts = [
+        render(dir.path(), "a", &["--samples", "0..3"]),
+        render(dir.path(), "b", &["--samples", "3..8"]),
+    ];
+    let merged = dir.path().join("merged");
+    let mut args = vec!["merge", "-o", merged.to_str().unwrap()];
+    args.extend(parts.iter().map(|p| p.to_str().unwrap()));
+    ok(&args);
+    let merged = spectral_exr::read(&merged.with_extension("spectral.exr")).unwrap();
+    assert_eq!(merged.attributes["prismSampleRange"], "0..8");
+    assert_eq!(merged.other[SAMPLE_COUNT], single.other[SAMPLE_COUNT]);
+    let d = max_relative_difference(&merged, &single);
+    eprintln!("sample ranges merged: max relative difference {d:e}");
+    // Float32 rounding: the film sums buckets in f32 and the files store
+    // means; a few ulps (ε = 6e-8) per value, never more than 1e-5.
+    assert!(d < 1e-5, "merged differs from the single render by {d}");
+
+    // Four tiles times two sample ranges: eight parts.
+    let mut tiles = Vec::new();
+    for (k, tile) in ["0,0,20,12", "20,0,40,12", "0,12,20,24", "20,12,40,24"]
+        .iter()
+        .enumerate()
+    {
+        for (j, range) in ["0..5", "5..8"].iter().enumerate() {
+            tiles.push(render(
+                dir.path(),
+                &format!("t{k}{j}"),
+                &["--tile", tile, "--samples", range],
+            ));
+        }
+    }
+    let merged_tiles = dir.path().join("tiles");
+    let mut args = vec!["merge", "-o", merged_tiles.to_str().unwrap()];
+    args.extend(tiles.iter().map(|p| p.to_str().unwrap()));
+    ok(&args);
+    let merged_tiles = spectral_exr::read(&merged_tiles.with_extension("spectral.exr")).unwrap();
+    assert_eq!(merged_tiles.other[SAMPLE_COUNT], single.other[SAMPLE_COUNT]);
+    let d = max_relative_difference(&merged_tiles, &single);
+    eprintln!("tiles merged: max relative difference {d:e}");
+    assert!(
+        d < 1e-5,
+        "merged tiles differ from the single render by {d}"
+    );
+    // The merged RGB image and PNG exist too.
+    assert!(dir.path().join("tiles.exr").exists() && dir.path().join("tiles.png").exists());
+}
+
+#[test]
+fn parts_that_do_not_belong_together_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = render(dir.path(), "a", &["--samples", "0..4"]);
+    let overlapping = render(dir.path(), "b", &["--samples", "2..6"]);
+    let other_seed = render(dir.path(), "c", &["--samples", "4..6", "--seed", "9"]);
+    let other_layout = render(
+        dir.path(),
+        "d",
+        &["--samples", "4..6", "--spectral-buckets", "20"],
+    );
+    let other_size = dir.path().join("e");
+    ok(&[
+        "render",
+        SCENE,
+        "-q",
+        "--resolution",
+        "20x12",
+        "--samples",
+        "4..6",
+        "-o",
+        other_size.to_str().unwrap(),
+    ]);
+    let other_size = other_size.with_extension("spectral.exr");
+    let rgb_only = dir.path().join("a.exr");
+    for (part, expect) in [
+        (&overlapping, "overlap"),
+        (&other_seed, "seeds"),
+        (&other_layout, "spectral layouts"),
+        (&other_size, "resolutions"),
+        (&rgb_only, "not a partial render"),
+    ] {
+        let out = prism(&[
+            "merge",
+            "-o",
+            dir.path().join("m").to_str().unwrap(),
+            a.to_str().unwrap(),
+            part.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains(expect), "expected `{expect}` in: {err}");
+    }
+}
