@@ -317,6 +317,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     String::new()
                 }
             );
+            if stats.stack_overflows > 0 {
+                eprintln!(
+                    "warning: {} times a path was inside more than {} nested dielectrics; the extra media were ignored",
+                    stats.stack_overflows,
+                    prism::integrator::ior_stack::CAPACITY
+                );
+            }
             if stats.interrupted {
                 eprintln!(
                     "interrupted: every pixel has at least {} samples",

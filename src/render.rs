@@ -45,6 +45,8 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples whose radiance was NaN or infinite: counted, recorded as zero.
     pub non_finite: u64,
+    /// Media not entered because a path's IOR stack was full.
+    pub stack_overflows: u64,
     pub elapsed: Duration,
     /// True when the render stopped before every sample was taken.
     pub interrupted: bool,
@@ -106,6 +108,7 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let start = Instant::now();
     let rays = AtomicU64::new(0);
     let non_finite = AtomicU64::new(0);
+    let overflows = AtomicU64::new(0);
     let cancelled = || {
         options
             .cancel
@@ -145,6 +148,7 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                     }
                 }
                 rays.fetch_add(counters.rays, Ordering::Relaxed);
+                overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
                 non_finite.fetch_add(bad, Ordering::Relaxed);
                 bar.inc((w * h) as u64 * range.len() as u64);
                 Some(tile)
@@ -161,6 +165,7 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
         samples,
         rays: rays.into_inner(),
         non_finite: non_finite.into_inner(),
+        stack_overflows: overflows.into_inner(),
         elapsed: start.elapsed(),
         interrupted: samples < total,
     };

@@ -1,6 +1,11 @@
 //! The path tracer: unidirectional paths from the camera with next-event
 //! estimation to area lights, combined with BSDF sampling by multiple
-//! importance sampling (power heuristic), and Russian roulette.
+//! importance sampling (power heuristic), and Russian roulette. Each path
+//! carries the stack of dielectric media it is inside.
+
+pub mod ior_stack;
+
+use glam::Vec4;
 
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -9,6 +14,7 @@ use crate::material::{Bsdf, ShadingGeometry};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, Strategy, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use ior_stack::{Crossing, IorStack, Medium};
 
 /// Shadow rays stop this fraction short of the (already offset) light point.
 const SHADOW_EPSILON: f32 = 1e-6;
@@ -18,6 +24,20 @@ const SHADOW_EPSILON: f32 = 1e-6;
 pub struct PathCounters {
     /// Closest-hit and shadow rays traced.
     pub rays: u64,
+    /// Media that could not be entered because the IOR stack was full.
+    pub stack_overflows: u64,
+}
+
+/// A path that crosses more false intersections than this in a row is
+/// ended (a pathological overlap of surfaces, never a real scene).
+const MAX_FALSE_INTERSECTIONS: u32 = 256;
+
+/// The index of refraction of a dielectric material at the path's wavelengths.
+fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
+    match scene.materials[material as usize].ior() {
+        Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
+        None => SampledSpectrum::ONE,
+    }
 }
 
 /// Veach's power heuristic (β = 2) for two strategies with one sample each.
@@ -49,12 +69,55 @@ pub fn radiance(
     let mut specular = true;
     let mut prev_bsdf_pdf = 0.0;
     let mut depth = 0;
+    let mut stack = IorStack::default();
+    // Product of η'² over transmissions: radiance scales by 1/η'² entering a
+    // denser medium, which Russian roulette must not mistake for a dim path.
+    let mut eta_scale = 1.0f32;
+    let mut false_hits = 0;
     loop {
         counters.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             break;
         };
         let wo = -ray.dir;
+        let material = &scene.materials[hit.material as usize];
+
+        // Dielectrics: which media meet here, or is the surface not there?
+        let mut eta = SampledSpectrum::ONE;
+        let mut medium = None;
+        if material.ior().is_some() {
+            let m = Medium {
+                material: hit.material,
+                priority: material.priority(),
+            };
+            let entering = ray.dir.dot(hit.ng) < 0.0;
+            match stack.classify(m, entering) {
+                Crossing::False => {
+                    if entering {
+                        if !stack.push(m) {
+                            counters.stack_overflows += 1;
+                        }
+                    } else {
+                        stack.remove(m.material);
+                    }
+                    false_hits += 1;
+                    if false_hits > MAX_FALSE_INTERSECTIONS {
+                        break;
+                    }
+                    ray = Ray::new(
+                        offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
+                        ray.dir,
+                    );
+                    continue;
+                }
+                Crossing::Real { outside, inside } => {
+                    let n_out = outside.map_or(SampledSpectrum::ONE, |o| ior_at(scene, o, wl));
+                    eta = ior_at(scene, inside, wl) / n_out;
+                    medium = Some((m, entering));
+                }
+            }
+        }
+        false_hits = 0;
 
         if let Some(light) = hit.light {
             let le = scene.lights.emitted(light, hit.ng, wo, wl);
@@ -83,13 +146,14 @@ pub fn radiance(
             ns: hit.ns,
             wo,
         };
-        let bsdf = scene.materials[hit.material as usize].bsdf(&geom, wl);
+        let bsdf = material.bsdf(&geom, wl, eta);
 
-        if strategy != Strategy::Bsdf {
+        if strategy != Strategy::Bsdf && !bsdf.is_specular() {
             l += beta * sample_direct(scene, &hit, &bsdf, wl, sampler, counters);
         }
 
-        let Some(bs) = bsdf.sample(sampler.next_2d()) else {
+        let uc = sampler.next_f32();
+        let Some(bs) = bsdf.sample(uc, sampler.next_2d()) else {
             break;
         };
         beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
@@ -97,12 +161,27 @@ pub fn radiance(
         prev_bsdf_pdf = bs.pdf;
         ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
 
+        // Transmission through a dielectric moves the path into or out of it.
+        if let Some((m, entering)) = medium {
+            if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
+                eta_scale *= bs.eta * bs.eta;
+                if entering {
+                    if !stack.push(m) {
+                        counters.stack_overflows += 1;
+                    }
+                } else {
+                    stack.remove(m.material);
+                }
+            }
+        }
+
         // Russian roulette: end dim paths with probability 1 − max(β), and
         // reweight the survivors so the estimate stays unbiased.
         let u = sampler.next_f32();
         let max_beta = beta.max_element();
-        if depth >= settings.rr_depth && max_beta < 1.0 {
-            let q = (1.0 - max_beta).max(0.0);
+        let rr_beta = max_beta * eta_scale;
+        if depth >= settings.rr_depth && rr_beta < 1.0 {
+            let q = (1.0 - rr_beta).max(0.0);
             if u < q {
                 break;
             }

@@ -56,6 +56,7 @@ impl DiffuseBsdf {
             f: self.reflectance * FRAC_1_PI,
             pdf,
             specular: false,
+            eta: 1.0,
         })
     }
 }
@@ -77,12 +78,16 @@ mod tests {
             ns: Vec3::Z,
             wo: Vec3::new(0.3, 0.0, 0.9).normalize(),
         };
-        let bsdf = m.bsdf(&geom, &SampledWavelengths::sample_visible(0.5));
+        let bsdf = m.bsdf(
+            &geom,
+            &mut SampledWavelengths::sample_visible(0.5),
+            SampledSpectrum::ONE,
+        );
         let mut s = Sampler::new(3, 4);
         let n = 100_000;
         let mut sum = 0.0f64;
         for _ in 0..n {
-            let smp = bsdf.sample(s.next_2d()).unwrap();
+            let smp = bsdf.sample(0.5, s.next_2d()).unwrap();
             assert!((smp.pdf - bsdf.pdf(smp.wi)).abs() < 1e-5);
             assert_eq!(smp.f, bsdf.eval(smp.wi));
             sum += (smp.f.x * bsdf.cos_theta(smp.wi) / smp.pdf) as f64;
@@ -93,7 +98,13 @@ mod tests {
             wo: -geom.wo,
             ..geom
         };
-        let Bsdf::Diffuse(b) = m.bsdf(&back, &SampledWavelengths::sample_visible(0.5));
+        let Bsdf::Diffuse(b) = m.bsdf(
+            &back,
+            &mut SampledWavelengths::sample_visible(0.5),
+            SampledSpectrum::ONE,
+        ) else {
+            panic!("a diffuse material gives a diffuse BSDF");
+        };
         assert!(b.eval(-Vec3::Z).x > 0.0 && b.eval(Vec3::Z).x == 0.0);
     }
 }

@@ -1,11 +1,20 @@
 //! Materials and the BSDFs they produce at a hit. Dispatch is an enum: the
 //! set of materials is closed and the hot path avoids virtual calls.
 
+mod conductor;
+pub mod dielectric;
 mod diffuse;
+pub mod fresnel;
+pub mod ior;
+pub mod metals;
+pub mod microfacet;
 
 use glam::Vec3;
 
+pub use conductor::ConductorBsdf;
+pub use dielectric::DielectricBsdf;
 pub use diffuse::DiffuseBsdf;
+pub use ior::Ior;
 
 use crate::geometry::Frame;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
@@ -14,6 +23,16 @@ use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 pub enum Material {
     /// Lambertian reflection.
     Diffuse { reflectance: Spectrum },
+    /// A metal with complex index n + ik (relative to the outside medium);
+    /// α = 0 is a mirror.
+    Conductor {
+        eta: Spectrum,
+        k: Spectrum,
+        alpha: f32,
+    },
+    /// A transparent dielectric; `priority` resolves overlapping volumes
+    /// (higher wins, Schmidt & Budge 2002).
+    Dielectric { ior: Ior, alpha: f32, priority: i32 },
 }
 
 /// A BSDF sample: direction, value, density (solid angle).
@@ -24,12 +43,16 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// A Dirac delta lobe: no light sampling or MIS applies to it.
     pub specular: bool,
+    /// η' of a transmission (n_transmitted / n_incident); 1 for reflection.
+    pub eta: f32,
 }
 
 /// The BSDF at one hit, for one set of wavelengths, in world space.
 #[derive(Clone, Copy, Debug)]
 pub enum Bsdf {
     Diffuse(DiffuseBsdf),
+    Conductor(ConductorBsdf),
+    Dielectric(DielectricBsdf),
 }
 
 /// Geometry of the hit a BSDF is built for.
@@ -44,20 +67,58 @@ pub struct ShadingGeometry {
 }
 
 impl Material {
-    pub fn bsdf(&self, geom: &ShadingGeometry, wl: &SampledWavelengths) -> Bsdf {
+    /// The BSDF at a hit. `eta` is n_inside / n_outside per wavelength (used
+    /// by dielectrics). A smooth dispersive interface terminates the
+    /// secondary wavelengths: they cannot follow the hero's direction.
+    pub fn bsdf(
+        &self,
+        geom: &ShadingGeometry,
+        wl: &mut SampledWavelengths,
+        eta: SampledSpectrum,
+    ) -> Bsdf {
         match self {
             Material::Diffuse { reflectance } => {
                 Bsdf::Diffuse(DiffuseBsdf::new(reflectance.sample(wl), geom))
             }
+            Material::Conductor { eta, k, alpha } => Bsdf::Conductor(ConductorBsdf::new(
+                eta.sample(wl),
+                k.sample(wl),
+                *alpha,
+                geom,
+            )),
+            Material::Dielectric { alpha, .. } => {
+                let bsdf = DielectricBsdf::new(eta, *alpha, geom);
+                let dispersive = eta.x != eta.y || eta.x != eta.z || eta.x != eta.w;
+                if dispersive && bsdf.is_specular() {
+                    wl.terminate_secondary();
+                }
+                Bsdf::Dielectric(bsdf)
+            }
+        }
+    }
+
+    pub fn ior(&self) -> Option<&Ior> {
+        match self {
+            Material::Dielectric { ior, .. } => Some(ior),
+            _ => None,
+        }
+    }
+
+    pub fn priority(&self) -> i32 {
+        match self {
+            Material::Dielectric { priority, .. } => *priority,
+            _ => 0,
         }
     }
 }
 
 impl Bsdf {
-    /// f(wo, wi) for the path's `wo`.
+    /// f(wo, wi) for the path's `wo` (zero for Dirac lobes).
     pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
         match self {
             Bsdf::Diffuse(b) => b.eval(wi),
+            Bsdf::Conductor(b) => b.eval(wi),
+            Bsdf::Dielectric(b) => b.eval(wi),
         }
     }
 
@@ -65,20 +126,37 @@ impl Bsdf {
     pub fn pdf(&self, wi: Vec3) -> f32 {
         match self {
             Bsdf::Diffuse(b) => b.pdf(wi),
+            Bsdf::Conductor(b) => b.pdf(wi),
+            Bsdf::Dielectric(b) => b.pdf(wi),
         }
     }
 
-    pub fn sample(&self, u: (f32, f32)) -> Option<BsdfSample> {
+    /// Samples a direction: `uc` chooses between lobes, `u` within one.
+    pub fn sample(&self, uc: f32, u: (f32, f32)) -> Option<BsdfSample> {
         match self {
             Bsdf::Diffuse(b) => b.sample(u),
+            Bsdf::Conductor(b) => b.sample(u),
+            Bsdf::Dielectric(b) => b.sample(uc, u),
+        }
+    }
+
+    /// Only Dirac lobes: light sampling cannot help.
+    pub fn is_specular(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) => false,
+            Bsdf::Conductor(b) => b.is_specular(),
+            Bsdf::Dielectric(b) => b.is_specular(),
         }
     }
 
     /// |cos| between `wi` and the shading normal, for the rendering equation.
     pub fn cos_theta(&self, wi: Vec3) -> f32 {
-        match self {
-            Bsdf::Diffuse(b) => b.frame().n.dot(wi).abs(),
-        }
+        let n = match self {
+            Bsdf::Diffuse(b) => b.frame().n,
+            Bsdf::Conductor(b) => b.frame().n,
+            Bsdf::Dielectric(b) => b.frame().n,
+        };
+        n.dot(wi).abs()
     }
 }
 

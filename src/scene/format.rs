@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::spectrum_spec::SpectrumSpec;
+use super::spectrum_spec::{IorSpec, SpectrumSpec};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -134,6 +134,30 @@ pub enum MaterialSpec {
         #[serde(default = "default_reflectance")]
         reflectance: SpectrumSpec,
     },
+    /// A metal: `metal = "Au" | "Ag" | "Cu" | "Al"`, or `eta` and `k` spectra.
+    Conductor {
+        metal: Option<String>,
+        eta: Option<SpectrumSpec>,
+        k: Option<SpectrumSpec>,
+        /// 0 (mirror) to 1; α = roughness².
+        #[serde(default)]
+        roughness: f32,
+    },
+    /// A transparent dielectric (glass, water, gems).
+    Dielectric {
+        #[serde(default = "default_ior")]
+        ior: IorSpec,
+        /// 0 (smooth) to 1; α = roughness².
+        #[serde(default)]
+        roughness: f32,
+        /// Where volumes overlap, the higher priority fills the overlap.
+        #[serde(default)]
+        priority: i32,
+    },
+}
+
+fn default_ior() -> IorSpec {
+    IorSpec::Constant(1.5)
 }
 
 fn default_reflectance() -> SpectrumSpec {

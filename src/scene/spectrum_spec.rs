@@ -193,3 +193,97 @@ mod tests {
         assert!(e.contains("line 1") && e.contains("[nm, value]"), "{e}");
     }
 }
+
+/// How an index of refraction is written in a scene file:
+///
+/// - `1.5`: constant
+/// - `"N-BK7"`: a named glass (N-BK7, N-SF11, N-F2, fused silica, diamond, water)
+/// - `{ cauchy = [A, B] }`: n = A + B/λ², λ in µm
+/// - `{ sellmeier = [[B1, B2, B3], [C1, C2, C3]] }`: λ in µm, C in µm²
+/// - `{ abbe = [n_d, V_d] }`: Cauchy through n_d with Abbe number V_d
+/// - a spectrum table or `{ file = "n.csv" }`: n per wavelength
+#[derive(Clone, Debug, PartialEq)]
+pub enum IorSpec {
+    Constant(f32),
+    Named(String),
+    Cauchy([f32; 2]),
+    Sellmeier { b: Vec<f32>, c: Vec<f32> },
+    Abbe([f32; 2]),
+    Spectrum(SpectrumSpec),
+}
+
+impl<'de> Deserialize<'de> for IorSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(IorVisitor)
+    }
+}
+
+struct IorVisitor;
+
+impl<'de> Visitor<'de> for IorVisitor {
+    type Value = IorSpec;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str(
+            "a number, a glass name such as \"N-BK7\", a table [[nm, n], ...], or a table with one of \
+             `cauchy`, `sellmeier`, `abbe`, `file`",
+        )
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Self::Value, E> {
+        Ok(IorSpec::Constant(v as f32))
+    }
+
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Self::Value, E> {
+        Ok(IorSpec::Constant(v as f32))
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Self::Value, E> {
+        Ok(IorSpec::Constant(v as f32))
+    }
+
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<Self::Value, E> {
+        Ok(IorSpec::Named(v.to_string()))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Self::Value, A::Error> {
+        SpectrumVisitor.visit_seq(seq).map(IorSpec::Spectrum)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let Some(key) = map.next_key::<String>()? else {
+            return Err(de::Error::custom(
+                "an empty table is not an index of refraction",
+            ));
+        };
+        let spec = match key.as_str() {
+            "cauchy" => IorSpec::Cauchy(map.next_value()?),
+            "abbe" => IorSpec::Abbe(map.next_value()?),
+            "sellmeier" => {
+                let [b, c]: [Vec<f32>; 2] = map.next_value()?;
+                if b.len() != c.len() || b.is_empty() || b.len() > 4 {
+                    return Err(de::Error::custom(
+                        "`sellmeier` needs [[B1, ...], [C1, ...]] of equal length, 1 to 4 terms",
+                    ));
+                }
+                IorSpec::Sellmeier { b, c }
+            }
+            "file" => IorSpec::Spectrum(SpectrumSpec::File {
+                path: map.next_value()?,
+                scale: 1.0,
+            }),
+            other => {
+                return Err(de::Error::unknown_field(
+                    other,
+                    &["cauchy", "sellmeier", "abbe", "file"],
+                ))
+            }
+        };
+        if let Some(extra) = map.next_key::<String>()? {
+            return Err(de::Error::custom(format!(
+                "unexpected `{extra}`: give one IOR form"
+            )));
+        }
+        Ok(spec)
+    }
+}
