@@ -1,6 +1,9 @@
 //! Indices of refraction as functions of wavelength: constant, Cauchy,
 //! Sellmeier, Abbe number, or a table; with named glasses.
 
+// Coefficients are kept as published, beyond what f32 holds.
+#![allow(clippy::excessive_precision)]
+
 use crate::spectrum::Spectrum;
 
 /// Fraunhofer d, F and C lines (nm), which define n_d and the Abbe number.
