@@ -412,7 +412,7 @@ fn transmission_obeys_the_generalised_reciprocity() {
 fn extreme_parameters_stay_finite() {
     let mut s = Sampler::new(2, 2);
     for alpha in [0.0f32, 1e-4, 1.0] {
-        for eta in [1.0001f32, 1.5, 3.0] {
+        for eta in [1.0001f32, 1.5, 3.0, 0.982, 0.7] {
             for theta in [0.0f32, 60.0, 89.9, 90.0] {
                 for side in [1.0f32, -1.0] {
                     let wo = incident(theta) * Vec3::new(1.0, 1.0, side);
@@ -426,8 +426,14 @@ fn extreme_parameters_stay_finite() {
                                     w.is_finite() && smp.pdf > 0.0,
                                     "α {alpha} η {eta} θ {theta}: {smp:?}"
                                 );
-                                // Leaving a denser medium, radiance grows by up to η².
-                                let bound = if side < 0.0 { eta * eta } else { 1.0 };
+                                // Radiance crossing into a less dense medium grows by
+                                // the squared ratio of the indices (1/η² going in, η² coming out).
+                                let bound = if side > 0.0 {
+                                    1.0 / (eta * eta)
+                                } else {
+                                    eta * eta
+                                }
+                                .max(1.0);
                                 assert!(
                                     w.max_element() <= bound * (1.0 + 1e-3),
                                     "energy gain {w} at α {alpha} η {eta} θ {theta}"
@@ -444,4 +450,58 @@ fn extreme_parameters_stay_finite() {
             }
         }
     }
+}
+
+#[test]
+fn spectral_mis_only_averages_over_live_wavelengths() {
+    // A rough interface between dispersive media: with all four wavelengths
+    // alive the sampling density is their average; once a smooth dispersive
+    // interface has terminated the secondaries, it is the hero's alone
+    // (averaging over dead wavelengths would inflate the hero fourfold).
+    let m = dielectric(0.05);
+    let geom = ShadingGeometry {
+        ng: Vec3::Z,
+        ns: Vec3::Z,
+        wo: incident(30.0),
+    };
+    let eta = Vec4::new(1.50, 1.52, 1.54, 1.56);
+    let mut alive = SampledWavelengths::sample_visible(0.3);
+    let mut dead = alive;
+    dead.terminate_secondary();
+    let b_alive = m.bsdf(&geom, &mut alive, eta);
+    let b_dead = m.bsdf(&geom, &mut dead, eta);
+    let hero_only = m.bsdf(
+        &geom,
+        &mut SampledWavelengths::sample_visible(0.3),
+        Vec4::splat(1.50),
+    );
+    let mut s = Sampler::new(8, 8);
+    let mut checked = 0;
+    for _ in 0..1000 {
+        let uc = s.next_f32();
+        let Some(smp) = b_dead.sample(uc, s.next_2d()) else {
+            continue;
+        };
+        let hero_pdf = hero_only.pdf(smp.wi);
+        assert!(
+            (smp.pdf - hero_pdf).abs() <= 1e-3 * hero_pdf,
+            "{} vs {hero_pdf}",
+            smp.pdf
+        );
+        checked += 1;
+    }
+    assert!(checked > 900);
+    // Alive: the sampled density is the average, which differs from the hero's.
+    let mut differs = 0;
+    for _ in 0..1000 {
+        let uc = s.next_f32();
+        let Some(smp) = b_alive.sample(uc, s.next_2d()) else {
+            continue;
+        };
+        assert!((smp.pdf - b_alive.pdf(smp.wi)).abs() <= 1e-3 * smp.pdf);
+        if (smp.pdf - hero_only.pdf(smp.wi)).abs() > 0.05 * smp.pdf {
+            differs += 1;
+        }
+    }
+    assert!(differs > 100, "spectral MIS changed no density: {differs}");
 }

@@ -50,7 +50,14 @@ fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
 
 impl DielectricBsdf {
     /// `geom.ng` must be the front-face normal (not flipped towards `wo`).
-    pub fn new(eta: SampledSpectrum, alpha: f32, geom: &ShadingGeometry) -> Self {
+    /// `secondaries_alive`: the path still carries all four wavelengths
+    /// (spectral MIS must not average over terminated ones).
+    pub fn new(
+        eta: SampledSpectrum,
+        alpha: f32,
+        geom: &ShadingGeometry,
+        secondaries_alive: bool,
+    ) -> Self {
         let ns = if geom.ns.dot(geom.ng) < 0.0 {
             -geom.ns
         } else {
@@ -65,7 +72,7 @@ impl DielectricBsdf {
             wo: frame.to_local(geom.wo),
             eta,
             ggx,
-            spectral_mis: dispersive && !ggx.is_smooth(),
+            spectral_mis: dispersive && !ggx.is_smooth() && secondaries_alive,
         }
     }
 

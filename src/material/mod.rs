@@ -87,7 +87,7 @@ impl Material {
                 geom,
             )),
             Material::Dielectric { alpha, .. } => {
-                let bsdf = DielectricBsdf::new(eta, *alpha, geom);
+                let bsdf = DielectricBsdf::new(eta, *alpha, geom, !wl.secondary_terminated());
                 let dispersive = eta.x != eta.y || eta.x != eta.z || eta.x != eta.w;
                 if dispersive && bsdf.is_specular() {
                     wl.terminate_secondary();
