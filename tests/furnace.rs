@@ -76,3 +76,89 @@ fn furnace_half_albedo_all_strategies() {
 fn furnace_high_albedo_long_paths() {
     furnace(0.9, 0.1, "mis");
 }
+
+/// Lossless dielectrics inside the furnace change nothing: seen from
+/// outside, a smooth sphere of glass (dispersive or not) shows the same
+/// uniform radiance, which tests Fresnel R + T = 1, total internal
+/// reflection, the η² radiance bookkeeping and the IOR stack at once. IOR 1
+/// is the invisible case. A rough sphere may only lose energy (microfacet
+/// single scattering drops what would scatter twice), never gain it.
+#[test]
+fn furnace_with_dielectric_spheres() {
+    for (ior, roughness) in [
+        ("1.0", 0.0),
+        ("1.5", 0.0),
+        ("1.5", 0.3),
+        ("\"N-SF11\"", 0.0),
+        ("\"N-SF11\"", 0.3),
+    ] {
+        let s = scene(&format!(
+            r#"
+            [camera]
+            position = [0.1, -0.2, 0.05]
+            look_at = [0, 0, 1]
+            fov = 100
+
+            [film]
+            resolution = [8, 8]
+            spp = 256
+            max_depth = 100000
+
+            [materials.wall]
+            type = "diffuse"
+            reflectance = 0.5
+
+            [materials.glass]
+            type = "dielectric"
+            ior = {ior}
+            roughness = {roughness}
+
+            [[shape]]
+            type = "sphere"
+            radius = 1
+            segments = 24
+            smooth = false
+            flip_normals = true
+            material = "wall"
+            emission = 0.25
+
+            [[shape]]   # in front of the camera, filling much of the view
+            type = "sphere"
+            center = [0, 0, 0.5]
+            radius = 0.3
+            material = "glass"
+            "#
+        ));
+        let film = render_film(&s, 2);
+        let (mut total, mut var) = (0.0, 0.0);
+        for y in 0..8 {
+            for x in 0..8 {
+                let (m, v) = film.luminance_and_variance(x, y);
+                if roughness == 0.0 {
+                    assert!(
+                        (m - 0.5).abs() < 5.0 * v.sqrt(),
+                        "ior {ior}: pixel ({x}, {y}) = {m} ± {}",
+                        v.sqrt()
+                    );
+                }
+                total += m / 64.0;
+                var += v / 4096.0;
+            }
+        }
+        eprintln!("glass sphere ior {ior} roughness {roughness}: image mean {total:.4} ± {:.4} (furnace 0.5)", var.sqrt());
+        assert!(var.sqrt() < 0.01, "error bar too wide");
+        if roughness == 0.0 {
+            assert!(
+                (total - 0.5).abs() < 4.0 * var.sqrt(),
+                "ior {ior}: {total} ± {}",
+                var.sqrt()
+            );
+        } else {
+            assert!(
+                total < 0.5 + 4.0 * var.sqrt() && total > 0.45,
+                "ior {ior} roughness {roughness}: {total} ± {}",
+                var.sqrt()
+            );
+        }
+    }
+}
