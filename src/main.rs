@@ -241,6 +241,12 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 scene.settings.spectral_buckets,
             )
             .map_err(|e| anyhow::anyhow!("`--{}", e.replace('_', "-")))?;
+            scene::check_film_size(
+                scene.settings.width,
+                scene.settings.height,
+                scene.settings.spectral_buckets,
+            )
+            .map_err(|e| anyhow::anyhow!(e))?;
             if no_spectral {
                 if samples.is_some() || tile.is_some() {
                     bail!("--samples and --tile write a partial spectral EXR for `prism merge`: drop --no-spectral");

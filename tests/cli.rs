@@ -121,3 +121,43 @@ fn bad_input_exits_with_a_message() {
     let err = failing(&["render", "ok.toml", "--spp", "0"], dir.path());
     assert!(err.contains("--spp"), "{err}");
 }
+
+#[test]
+fn sigterm_writes_the_samples_done_so_far() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("long.toml");
+    // Far more samples than a second allows.
+    std::fs::write(&scene, SCENE.replace("spp = 4", "spp = 1000000")).unwrap();
+    let child = prism()
+        .args(["render", "--threads", "2", "-q"])
+        .arg(&scene)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let status = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("every pixel has at least"), "{err}");
+    let png = image::open(dir.path().join("long.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (24, 16));
+    assert!(png.pixels().any(|p| p.0 != [0, 0, 0]));
+    let img = prism::film::spectral_exr::read(&dir.path().join("long.spectral.exr")).unwrap();
+    assert_eq!(img.attributes["prismInterrupted"], "true");
+    let counts = &img.other["sampleCount"];
+    assert!(
+        counts.iter().all(|c| (1.0..1_000_000.0).contains(c)),
+        "{:?}",
+        &counts[..4]
+    );
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
+}

@@ -36,6 +36,17 @@ fn unknown_key_names_key_line_and_file() {
 }
 
 #[test]
+fn near_miss_keys_get_a_suggestion() {
+    let e = error(&format!("{CAMERA}[film]\nmax_dept = 3\n"));
+    assert!(
+        e.contains("unknown field `max_dept`") && e.contains("did you mean `max_depth`?"),
+        "{e}"
+    );
+    let e = error(&format!("{CAMERA}[materials.m]\ntype = \"dielectirc\"\n"));
+    assert!(e.contains("did you mean `dielectric`?"), "{e}");
+}
+
+#[test]
 fn wrong_type_names_the_key() {
     let e = error(&format!("{CAMERA}[film]\nspp = \"many\"\n"));
     assert!(e.contains("invalid type") && e.contains("spp"), "{e}");

@@ -17,6 +17,13 @@ use crate::spectrum::{
     cie, csv, rgb2spec, RgbSpectrum, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN,
 };
 
+/// Largest image side accepted.
+const MAX_RESOLUTION: u32 = 32_768;
+/// Largest film memory accepted (pixel sums and spectral buckets).
+const MAX_FILM_BYTES: u64 = 16 << 30;
+/// Finest built-in sphere tessellation accepted.
+const MAX_SPHERE_SEGMENTS: u32 = 4096;
+
 /// A scene that could not be loaded: which file, and what is wrong.
 #[derive(Debug)]
 pub struct SceneError {
@@ -82,13 +89,15 @@ impl Loader {
     }
 
     fn load(&self, text: &str) -> Result<Scene, SceneError> {
-        let value: toml::Table = toml::from_str(text).map_err(|e| self.error(e.to_string()))?;
+        let value: toml::Table =
+            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
         if let Some(key) = first_non_finite(&toml::Value::Table(value), "") {
             return Err(self.error(format!(
                 "`{key}` is not a finite number; numbers in a scene must be finite"
             )));
         }
-        let file: SceneFile = toml::from_str(text).map_err(|e| self.error(e.to_string()))?;
+        let file: SceneFile =
+            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
 
         let settings = self.settings(&file)?;
         let camera = self.camera(&file, &settings)?;
@@ -262,6 +271,7 @@ impl Loader {
         if f.spp == 0 {
             return Err(self.error("`film.spp` must be at least 1"));
         }
+        check_film_size(width, height, f.spectral_buckets).map_err(|e| self.error(e))?;
         check_spectral_layout(f.spectral_range, f.spectral_buckets)
             .map_err(|e| self.error(format!("`film.{e}")))?;
         Ok(RenderSettings {
@@ -499,10 +509,16 @@ impl Loader {
                 if !(r > 0.0) {
                     return Err(self.error(format!("`{key}.radius` must be positive")));
                 }
+                let segments = shape.segments.unwrap_or(64);
+                if !(3..=MAX_SPHERE_SEGMENTS).contains(&segments) {
+                    return Err(self.error(format!(
+                        "`{key}.segments` must be between 3 and {MAX_SPHERE_SEGMENTS}, found {segments}"
+                    )));
+                }
                 Mesh::sphere(
                     Vec3::from(shape.center.unwrap_or([0.0; 3])),
                     r,
-                    shape.segments.unwrap_or(64),
+                    segments,
                     shape.smooth.unwrap_or(true),
                 )
             }
@@ -512,6 +528,11 @@ impl Loader {
         }
         if shape.flip_normals {
             mesh.flip();
+        }
+        if mesh.positions.iter().any(|p| !p.is_finite()) {
+            return Err(self.error(format!(
+                "`{key}`: vertex positions are not finite (after the transform)"
+            )));
         }
         Ok(mesh)
     }
@@ -556,6 +577,23 @@ impl Loader {
         }
         Ok(m)
     }
+}
+
+/// Checks that a film fits: at most 32768 pixels a side and 16 GiB of sums.
+pub fn check_film_size(width: u32, height: u32, buckets: u32) -> Result<(), String> {
+    if width > MAX_RESOLUTION || height > MAX_RESOLUTION {
+        return Err(format!(
+            "`film.resolution` [{width}, {height}] is larger than {MAX_RESOLUTION} pixels on a side"
+        ));
+    }
+    let film_bytes = width as u64 * height as u64 * (48 + 4 * buckets as u64);
+    if film_bytes > MAX_FILM_BYTES {
+        return Err(format!(
+            "the film ({width}x{height} pixels, {buckets} spectral buckets) would need {:.1} GiB: use fewer pixels or buckets",
+            film_bytes as f64 / (1u64 << 30) as f64
+        ));
+    }
+    Ok(())
 }
 
 /// Checks a film's spectral bucket layout; the message starts with the key.
@@ -609,6 +647,65 @@ fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
     }
 }
 
+/// Adds "did you mean `spp`?" to serde's "unknown field `samples`, expected
+/// one of ..." (and "unknown variant") when one of the expected names is close.
+fn with_suggestion(message: String) -> String {
+    let Some(start) = message
+        .find("unknown field `")
+        .or_else(|| message.find("unknown variant `"))
+    else {
+        return message;
+    };
+    let rest = &message[start..];
+    let Some(open) = rest.find('`') else {
+        return message;
+    };
+    let Some(close) = rest[open + 1..].find('`') else {
+        return message;
+    };
+    let unknown = &rest[open + 1..open + 1 + close];
+    let Some(expected) = rest.find("expected") else {
+        return message;
+    };
+    let candidates: Vec<&str> = rest[expected..]
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .take_while(|c| !c.contains('\n'))
+        .collect();
+    let best = candidates
+        .iter()
+        .map(|c| {
+            (
+                edit_distance(&unknown.to_lowercase(), &c.to_lowercase()),
+                *c,
+            )
+        })
+        .min();
+    match best {
+        Some((d, c)) if d > 0 && d <= 2.max(unknown.len() / 3) => {
+            format!("{message}\ndid you mean `{c}`?")
+        }
+        _ => message,
+    }
+}
+
+/// Levenshtein distance.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for j in 0..b.len() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + (ca != b[j]) as usize).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
 /// The dotted key of the first NaN or infinite number in a TOML value.
 fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
     match v {
@@ -626,5 +723,23 @@ fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
             .enumerate()
             .find_map(|(i, v)| first_non_finite(v, &format!("{key}[{i}]"))),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suggestions_for_near_misses_only() {
+        let m = "TOML parse error at line 5, column 1\n  |\n5 | spq = 4\n  | ^^^\nunknown field `spq`, expected one of `resolution`, `spp`, `max_depth`\n".to_string();
+        assert!(with_suggestion(m).ends_with("did you mean `spp`?"));
+        let m = "unknown field `zzzzzz`, expected one of `resolution`, `spp`".to_string();
+        assert!(!with_suggestion(m).contains("did you mean"));
+        let m =
+            "unknown variant `dielectirc`, expected one of `diffuse`, `conductor`, `dielectric`"
+                .to_string();
+        assert!(with_suggestion(m).ends_with("did you mean `dielectric`?"));
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
     }
 }

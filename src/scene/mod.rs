@@ -9,7 +9,7 @@ pub mod spectrum_spec;
 use glam::Vec3;
 
 pub use format::{Strategy, Tonemap};
-pub use load::{check_spectral_layout, load, load_str, SceneError};
+pub use load::{check_film_size, check_spectral_layout, load, load_str, SceneError};
 pub use mesh::Mesh;
 
 use crate::camera::Camera;
