@@ -5,9 +5,12 @@
 mod common;
 
 use common::{render_film, scene};
+use prism::scene::Scene;
 
-fn furnace(albedo: f64, emission: f64, strategy: &str) {
-    let s = scene(&format!(
+/// The furnace: a closed sphere of albedo `albedo` emitting `emission`
+/// inwards, the camera inside; `extra` adds TOML (materials, shapes).
+fn furnace_scene(albedo: f64, emission: f64, strategy: &str, extra: &str) -> Scene {
+    scene(&format!(
         r#"
         [camera]
         position = [0.1, -0.2, 0.05]
@@ -34,8 +37,14 @@ fn furnace(albedo: f64, emission: f64, strategy: &str) {
         flip_normals = true
         material = "wall"
         emission = {emission}
+
+        {extra}
         "#
-    ));
+    ))
+}
+
+fn furnace(albedo: f64, emission: f64, strategy: &str) {
+    let s = furnace_scene(albedo, emission, strategy, "");
     let film = render_film(&s, 2);
     let expected = emission / (1.0 - albedo);
     let (mut total, mut total_var) = (0.0, 0.0);
@@ -92,35 +101,12 @@ fn furnace_with_dielectric_spheres() {
         ("\"N-SF11\"", 0.0),
         ("\"N-SF11\"", 0.3),
     ] {
-        let s = scene(&format!(
+        let glass = format!(
             r#"
-            [camera]
-            position = [0.1, -0.2, 0.05]
-            look_at = [0, 0, 1]
-            fov = 100
-
-            [film]
-            resolution = [8, 8]
-            spp = 256
-            max_depth = 100000
-
-            [materials.wall]
-            type = "diffuse"
-            reflectance = 0.5
-
             [materials.glass]
             type = "dielectric"
             ior = {ior}
             roughness = {roughness}
-
-            [[shape]]
-            type = "sphere"
-            radius = 1
-            segments = 24
-            smooth = false
-            flip_normals = true
-            material = "wall"
-            emission = 0.25
 
             [[shape]]   # in front of the camera, filling much of the view
             type = "sphere"
@@ -128,7 +114,8 @@ fn furnace_with_dielectric_spheres() {
             radius = 0.3
             material = "glass"
             "#
-        ));
+        );
+        let s = furnace_scene(0.5, 0.25, "mis", &glass);
         let film = render_film(&s, 2);
         let (mut total, mut var) = (0.0, 0.0);
         for y in 0..8 {
