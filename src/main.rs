@@ -173,6 +173,18 @@ fn output_stem(scene: &Path, output: Option<PathBuf>) -> PathBuf {
     }
 }
 
+/// A byte count for people: KiB, MiB or GiB.
+fn human_bytes(bytes: usize) -> String {
+    let b = bytes as f64;
+    if b < (1 << 20) as f64 {
+        format!("{:.1} KiB", b / 1024.0)
+    } else if b < (1 << 30) as f64 {
+        format!("{:.1} MiB", b / (1 << 20) as f64)
+    } else {
+        format!("{:.2} GiB", b / (1 << 30) as f64)
+    }
+}
+
 /// `stem` + "." + `ext`, keeping any dots already in the stem (`out.part3`).
 fn suffixed(stem: &Path, ext: &str) -> PathBuf {
     let mut s = stem.as_os_str().to_owned();
@@ -275,10 +287,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let stem = output_stem(&scene_path, output);
             check_writable(&stem)?;
             eprintln!(
-                "loaded {} in {:.2} s: {} triangles, {} lights, {}x{}",
+                "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} emissive triangles, {}x{}",
                 scene_path.display(),
                 load_start.elapsed().as_secs_f64(),
                 scene.triangle_count(),
+                scene.degenerate_triangles,
+                scene.bvh().node_count(),
+                human_bytes(scene.bvh().size_bytes()),
                 scene.lights.lights.len(),
                 scene.settings.width,
                 scene.settings.height

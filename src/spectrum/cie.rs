@@ -87,11 +87,6 @@ pub fn xyz_to_linear_srgb(xyz: Vec3) -> Vec3 {
     XYZ_TO_SRGB * xyz
 }
 
-/// XYZ from linear sRGB: the inverse of [`xyz_to_linear_srgb`].
-pub fn linear_srgb_to_xyz(rgb: Vec3) -> Vec3 {
-    XYZ_TO_SRGB.inverse() * rgb
-}
-
 /// IEC 61966-2-1 XYZ → linear sRGB, column-major for glam.
 pub const XYZ_TO_SRGB: Mat3 = Mat3::from_cols_array(&[
     3.2406, -0.9689, 0.0557, //

@@ -122,14 +122,6 @@ impl Spectrum {
             .sum();
         (sum / n as f64) as f32
     }
-
-    /// Largest value over [min, max] nm, sampled at 1 nm.
-    pub fn max_value(&self, min: f32, max: f32) -> f32 {
-        let n = (max - min).ceil() as usize;
-        (0..=n)
-            .map(|i| self.eval((min + i as f32).min(max)))
-            .fold(f32::NEG_INFINITY, f32::max)
-    }
 }
 
 /// Planck's law: spectral radiance of a blackbody at `kelvin`, in

@@ -41,19 +41,6 @@ impl SampledWavelengths {
         }
     }
 
-    /// Samples four wavelengths uniformly over [min, max] (stratified).
-    pub fn sample_uniform(u: f32, min: f32, max: f32) -> Self {
-        let mut lambda = [0.0; N_WAVELENGTHS];
-        for (i, l) in lambda.iter_mut().enumerate() {
-            let up = (u + i as f32 / N_WAVELENGTHS as f32).fract();
-            *l = min + up * (max - min);
-        }
-        Self {
-            lambda: Vec4::from_array(lambda),
-            pdf: Vec4::splat(1.0 / (max - min)),
-        }
-    }
-
     /// Keeps only the hero wavelength (for paths through a dispersive
     /// interface, which the secondaries cannot follow).
     pub fn terminate_secondary(&mut self) {
