@@ -1,5 +1,6 @@
-//! Ray throughput on the Cornell Box: closest-hit queries for coherent
-//! camera rays and incoherent random rays, and whole paths per second.
+//! Ray throughput: closest-hit queries for coherent camera rays and
+//! incoherent random rays on the Cornell Box and on a procedural terrain of
+//! about a million triangles, and whole paths per second on the Cornell Box.
 //!
 //!     cargo bench --bench rays
 
@@ -7,23 +8,30 @@ use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use glam::Vec3;
+use prism::camera::Camera;
 use prism::geometry::Ray;
 use prism::integrator::{radiance, PathCounters};
+use prism::material::Material;
 use prism::sampler::Sampler;
-use prism::scene::{load, Scene};
+use prism::scene::{load, Mesh, RenderSettings, Scene, ShapeInstance, Strategy, Tonemap};
 use prism::spectrum::SampledWavelengths;
+use prism::spectrum::Spectrum;
 
 fn cornell() -> Scene {
     load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml"))
         .expect("the Cornell Box loads")
 }
 
+/// `n` camera rays on a square grid over the whole image, row by row.
 fn camera_rays(scene: &Scene, n: u32) -> Vec<Ray> {
     let (w, h) = scene.camera.resolution();
-    (0..n)
+    let side = (n as f32).sqrt() as u32;
+    (0..side * side)
         .map(|i| {
-            let (x, y) = (i % w, (i / w) % h);
-            scene.camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5)
+            let (u, v) = ((i % side) as f32 + 0.5, (i / side) as f32 + 0.5);
+            scene
+                .camera
+                .generate_ray(u / side as f32 * w as f32, v / side as f32 * h as f32)
         })
         .collect()
 }
@@ -39,6 +47,101 @@ fn random_rays(scene: &Scene, n: u32) -> Vec<Ray> {
             Ray::new(o * 0.98 + b.centroid() * 0.02, d)
         })
         .collect()
+}
+
+/// A bumpy height field of 2·(n−1)² triangles over [−1, 1]².
+fn terrain(n: u32) -> Scene {
+    let mut mesh = Mesh::default();
+    for j in 0..n {
+        for i in 0..n {
+            let (x, z) = (
+                2.0 * i as f32 / (n - 1) as f32 - 1.0,
+                2.0 * j as f32 / (n - 1) as f32 - 1.0,
+            );
+            let y =
+                0.05 * ((13.0 * x).sin() * (11.0 * z).cos() + 0.5 * (37.0 * x + 23.0 * z).sin());
+            mesh.positions.push(Vec3::new(x, y, z));
+        }
+    }
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let a = j * n + i;
+            mesh.indices.push([a, a + n, a + n + 1]);
+            mesh.indices.push([a, a + n + 1, a + 1]);
+        }
+    }
+    let (w, h) = (512, 512);
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        max_depth: 4,
+        rr_depth: 3,
+        seed: 0,
+        strategy: Strategy::Mis,
+        exposure: 0.0,
+        tonemap: Tonemap::Clamp,
+        spectral_range: [380.0, 780.0],
+        spectral_buckets: 1,
+        spectral_output: false,
+    };
+    let camera = Camera::look_at(Vec3::new(0.0, 1.2, -1.8), Vec3::ZERO, Vec3::Y, 50.0, w, h);
+    let material = Material::Diffuse {
+        reflectance: Spectrum::Constant(0.5),
+    };
+    Scene::build(
+        camera,
+        settings,
+        vec![material],
+        vec![ShapeInstance {
+            mesh,
+            material: 0,
+            emission: None,
+        }],
+    )
+}
+
+fn bench_terrain(c: &mut Criterion) {
+    let start = std::time::Instant::now();
+    let scene = terrain(708);
+    eprintln!(
+        "terrain: {} triangles, BVH built in {:.2} s, {} nodes, {:.1} bytes per triangle",
+        scene.triangle_count(),
+        start.elapsed().as_secs_f64(),
+        scene.bvh().node_count(),
+        scene.bvh().size_bytes() as f64 / scene.triangle_count() as f64
+    );
+    let n = 1 << 16;
+    let mut group = c.benchmark_group("terrain 1M triangles");
+    group.throughput(Throughput::Elements(n as u64));
+    let coherent = camera_rays(&scene, n);
+    let hits = coherent
+        .iter()
+        .filter(|r| scene.intersect(r).is_some())
+        .count();
+    eprintln!("terrain: {hits} of {} camera rays hit", coherent.len());
+    let mut s = Sampler::new(7, 7);
+    let incoherent: Vec<Ray> = (0..n)
+        .map(|_| {
+            let o = Vec3::new(
+                2.0 * s.next_f32() - 1.0,
+                0.3 * s.next_f32() + 0.06,
+                2.0 * s.next_f32() - 1.0,
+            );
+            let d = Vec3::new(s.next_f32() - 0.5, -s.next_f32(), s.next_f32() - 0.5)
+                .normalize_or(-Vec3::Y);
+            Ray::new(o, d)
+        })
+        .collect();
+    for (name, rays) in [
+        ("coherent camera rays", coherent),
+        ("incoherent rays", incoherent),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| rays.iter().filter(|r| scene.intersect(r).is_some()).count())
+        });
+    }
+    group.finish();
 }
 
 fn bench(c: &mut Criterion) {
@@ -76,5 +179,5 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+criterion_group!(benches, bench, bench_terrain);
 criterion_main!(benches);
