@@ -34,15 +34,10 @@ fn render_writes_exr_and_png() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("tiny.toml");
     std::fs::write(&scene, SCENE).unwrap();
-    let out = prism()
-        .args(["render", "--quiet", "--threads", "2"])
-        .arg(&scene)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        prism()
+            .args(["render", "--quiet", "--threads", "2"])
+            .arg(&scene),
     );
     let png = image::open(dir.path().join("tiny.png")).unwrap().to_rgb8();
     assert_eq!(png.dimensions(), (24, 16));
@@ -73,16 +68,11 @@ fn output_option_and_determinism_across_threads() {
     let scene = dir.path().join("s.toml");
     std::fs::write(&scene, SCENE).unwrap();
     for (threads, name) in [("1", "one"), ("2", "two")] {
-        let out = prism()
-            .args(["render", "-q", "--threads", threads, "-o"])
-            .arg(dir.path().join(format!("{name}.png")))
-            .arg(&scene)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        succeed(
+            prism()
+                .args(["render", "-q", "--threads", threads, "-o"])
+                .arg(dir.path().join(format!("{name}.png")))
+                .arg(&scene),
         );
     }
     let a = std::fs::read(dir.path().join("one.exr")).unwrap();
@@ -90,6 +80,15 @@ fn output_option_and_determinism_across_threads() {
     assert!(
         a == b,
         "the same scene and seed gave different images with 1 and 2 threads"
+    );
+}
+
+fn succeed(cmd: &mut Command) {
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
 }
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{region_mean, scene, z_score};
+use common::{assert_blocks_agree, scene};
 use glam::Vec3;
 use prism::film::Film;
 use prism::geometry::Ray;
@@ -143,16 +143,8 @@ fn coplanar_faces_do_not_shadow_each_other() {
     );
     let (a, _) = render_checked(&scene(&base));
     let (b, _) = render_checked(&scene(&twice));
-    for (x0, y0) in [(0, 0), (8, 8), (16, 16), (8, 16)] {
-        let (ra, rb) = (
-            region_mean(&a, x0, y0, x0 + 8, y0 + 8),
-            region_mean(&b, x0, y0, x0 + 8, y0 + 8),
-        );
-        assert!(
-            z_score(ra, rb) < 4.5,
-            "block ({x0}, {y0}): {ra:?} vs {rb:?}"
-        );
-    }
+    // 9 blocks at 4.5σ: a false alarm about once in 16000 runs.
+    assert_blocks_agree(&a, &b, 4.5, "floor modelled twice");
 }
 
 #[test]
@@ -199,19 +191,7 @@ fn the_same_image_at_every_scale() {
     let (reference, _) = render_checked(&base);
     for scale in [1e-4, 1e5] {
         let (img, _) = render_checked(&scaled(scale));
-        for by in 0..3 {
-            for bx in 0..3 {
-                let (x0, y0) = (bx * 8, by * 8);
-                let (a, b) = (
-                    region_mean(&reference, x0, y0, x0 + 8, y0 + 8),
-                    region_mean(&img, x0, y0, x0 + 8, y0 + 8),
-                );
-                assert!(
-                    z_score(a, b) < 4.5,
-                    "scale {scale}, block ({bx}, {by}): {a:?} vs {b:?}"
-                );
-            }
-        }
+        assert_blocks_agree(&reference, &img, 4.5, &format!("scale {scale}"));
     }
 }
 

@@ -61,3 +61,22 @@ pub fn region_mean(film: &Film, x0: u32, y0: u32, x1: u32, y1: u32) -> (f64, f64
 pub fn z_score(a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.0 - b.0).abs() / (a.1 + b.1).sqrt()
 }
+
+/// Asserts that two renders of one scene agree block by block (8 × 8
+/// pixels) within `z_max` standard errors of the difference.
+pub fn assert_blocks_agree(a: &Film, b: &Film, z_max: f64, what: &str) {
+    for y0 in (0..a.height).step_by(8) {
+        for x0 in (0..a.width).step_by(8) {
+            let (x1, y1) = ((x0 + 8).min(a.width), (y0 + 8).min(a.height));
+            let (ra, rb) = (
+                region_mean(a, x0, y0, x1, y1),
+                region_mean(b, x0, y0, x1, y1),
+            );
+            let z = z_score(ra, rb);
+            assert!(
+                z < z_max,
+                "{what}, block at ({x0}, {y0}): {ra:?} vs {rb:?}: {z:.1}σ"
+            );
+        }
+    }
+}
