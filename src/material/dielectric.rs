@@ -44,6 +44,12 @@ pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
     Some((-wi / eta + (cos_i / eta - cos_t) * n, eta))
 }
 
+/// Whether a relative index differs between the path's wavelengths: the
+/// interface disperses them.
+pub fn is_dispersive(eta: SampledSpectrum) -> bool {
+    eta.x != eta.y || eta.x != eta.z || eta.x != eta.w
+}
+
 fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     -wo + 2.0 * wo.dot(n) * n
 }
@@ -65,7 +71,7 @@ impl DielectricBsdf {
         };
         let frame = Frame::from_normal(ns);
         let ggx = Ggx::new(alpha);
-        let dispersive = eta.x != eta.y || eta.x != eta.z || eta.x != eta.w;
+        let dispersive = is_dispersive(eta);
         Self {
             frame,
             ng: geom.ng,

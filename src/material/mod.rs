@@ -88,8 +88,7 @@ impl Material {
             )),
             Material::Dielectric { alpha, .. } => {
                 let bsdf = DielectricBsdf::new(eta, *alpha, geom, !wl.secondary_terminated());
-                let dispersive = eta.x != eta.y || eta.x != eta.z || eta.x != eta.w;
-                if dispersive && bsdf.is_specular() {
+                if dielectric::is_dispersive(eta) && bsdf.is_specular() {
                     wl.terminate_secondary();
                 }
                 Bsdf::Dielectric(bsdf)
