@@ -87,7 +87,7 @@ fn terrain(n: u32) -> Scene {
     };
     let camera = Camera::look_at(Vec3::new(0.0, 1.2, -1.8), Vec3::ZERO, Vec3::Y, 50.0, w, h);
     let material = Material::Diffuse {
-        reflectance: Spectrum::Constant(0.5),
+        reflectance: Spectrum::Constant(0.5).into(),
     };
     Scene::build(
         camera,

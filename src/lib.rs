@@ -19,3 +19,4 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod spectrum;
+pub mod texture;

@@ -230,6 +230,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
         } => {
             let load_start = std::time::Instant::now();
             let mut scene = scene::load(&scene_path)?;
+            for w in &scene.warnings {
+                eprintln!("warning: {w}");
+            }
             if let Some(s) = strategy {
                 scene.settings.strategy = match s {
                     StrategyArg::Mis => Strategy::Mis,

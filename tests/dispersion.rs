@@ -29,7 +29,7 @@ fn trace(scene: &prism::scene::Scene, origin: Vec3, dir: Vec3, lambda: f32) -> V
             ns: hit.ns,
             wo: -ray.dir,
         };
-        let bsdf = material.bsdf(&geom, &mut wl, Vec4::splat(n));
+        let bsdf = material.bsdf(&geom, glam::Vec2::ZERO, &mut wl, Vec4::splat(n));
         // uc just below 1 picks refraction (Fresnel reflectance < 1).
         let smp = bsdf
             .sample(0.999_999, (0.5, 0.5))

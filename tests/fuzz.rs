@@ -1,7 +1,9 @@
 //! Property-based fuzzing of the input paths: mangled scene files and
-//! random OBJ files must load or fail with an error, never panic (proptest
+//! random OBJ files and damaged GLB files must load or fail with an error, never panic (proptest
 //! shrinks any failure to a minimal input). Bounded: a few hundred cases
 //! each, seconds in CI. For longer runs: PROPTEST_CASES=100000 cargo test --test fuzz.
+
+mod common;
 
 use proptest::prelude::*;
 
@@ -173,6 +175,55 @@ proptest! {
                 prop_assert_eq!(stats.non_finite, 0);
             }
             Err(e) => prop_assert!(e.message.contains("m.obj"), "{}", e.message),
+        }
+    }
+}
+
+/// A valid textured GLB (a quad with a base colour texture and a normal
+/// map) to damage.
+fn sample_glb() -> Vec<u8> {
+    use common::assets::{self, GltfBuilder};
+    let mut b = GltfBuilder::default();
+    let prim = assets::quad(&mut b, true);
+    let view = b.image_view(&assets::png(1, 1, &[200, 100, 50, 255]));
+    let json = b.json(&format!(
+        r#""scenes":[{{"nodes":[0]}}],"nodes":[{{"children":[1],"scale":[2,2,2]}},{{"mesh":0}}],
+        "meshes":[{{"name":"m","primitives":[{prim},"material":0}}]}}],
+        "images":[{{"bufferView":{view},"mimeType":"image/png"}}],"textures":[{{"source":0}}],
+        "materials":[{{"normalTexture":{{"index":0}},"emissiveFactor":[1,1,1],
+          "pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}]"#
+    ));
+    assets::glb_bytes(&json, &b.bin)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(300),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn damaged_glb_files_load_or_fail_cleanly(
+        cut in 0.0f64..1.2,
+        flips in proptest::collection::vec((0.0f64..1.0, any::<u8>()), 0..6),
+    ) {
+        let mut glb = sample_glb();
+        for (at, byte) in flips {
+            let i = ((at * glb.len() as f64) as usize).min(glb.len() - 1);
+            glb[i] = byte;
+        }
+        let keep = ((cut * glb.len() as f64) as usize).min(glb.len());
+        glb.truncate(keep);
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.glb"), &glb).unwrap();
+        let scene = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\nspp = 1\n\
+                     [[shape]]\ntype = \"gltf\"\nfile = \"m.glb\"\n";
+        match prism::scene::load_str(scene, dir.path()) {
+            Ok(s) => {
+                let (_, stats) = prism::render::render(&s, &prism::render::RenderOptions { threads: Some(1), ..Default::default() });
+                prop_assert_eq!(stats.non_finite, 0);
+            }
+            Err(e) => prop_assert!(e.message.contains("m.glb"), "{}", e.message),
         }
     }
 }

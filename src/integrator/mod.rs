@@ -120,7 +120,7 @@ pub fn radiance(
         false_hits = 0;
 
         if let Some(light) = hit.light {
-            let le = scene.lights.emitted(light, hit.ng, wo, wl);
+            let le = scene.lights.emitted(light, hit.ng, wo, hit.uv, wl);
             if le != SampledSpectrum::ZERO {
                 let weight = if specular || strategy == Strategy::Bsdf {
                     1.0
@@ -143,10 +143,10 @@ pub fn radiance(
 
         let geom = ShadingGeometry {
             ng: hit.ng,
-            ns: hit.ns,
+            ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
             wo,
         };
-        let bsdf = material.bsdf(&geom, wl, eta);
+        let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
 
         if strategy != Strategy::Bsdf && !bsdf.is_specular() {
             l += beta * sample_direct(scene, &hit, &bsdf, wl, sampler, counters);
@@ -212,14 +212,17 @@ fn sample_direct(
         return SampledSpectrum::ZERO;
     };
     let area = scene.lights.lights[light].area;
-    let lp = LightSet::sample_point(scene.triangle(scene.lights.lights[light].prim), u_point);
+    let prim = scene.lights.lights[light].prim;
+    let lp = LightSet::sample_point(scene.triangle(prim), u_point);
     let to_light = lp.p - hit.p;
     let dist2 = to_light.length_squared();
     if dist2 == 0.0 {
         return SampledSpectrum::ZERO;
     }
     let wi = to_light / dist2.sqrt();
-    let le = scene.lights.emitted(light, lp.n, -wi, wl);
+    let le = scene
+        .lights
+        .emitted(light, lp.n, -wi, scene.uv_at(prim, lp.b), wl);
     let cos_light = lp.n.dot(wi).abs();
     if le == SampledSpectrum::ZERO || cos_light == 0.0 {
         return SampledSpectrum::ZERO;

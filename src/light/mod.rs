@@ -1,16 +1,35 @@
 //! Area lights: emissive triangles, chosen for light sampling in proportion
 //! to their power and sampled uniformly by area.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::texture::TextureRef;
+
+/// What an emitter sends out: a spectral radiance, times a colour texture
+/// (in [0, 1]) over the surface when there is one.
+#[derive(Clone, Debug)]
+pub struct Emitter {
+    pub spectrum: Spectrum,
+    pub texture: Option<TextureRef>,
+}
+
+impl Emitter {
+    fn mean(&self) -> f64 {
+        let m = self.spectrum.average(LAMBDA_MIN, LAMBDA_MAX).max(0.0) as f64;
+        match &self.texture {
+            Some(t) => m * (t.texture.mean_rgb().element_sum() / 3.0).max(0.0) as f64,
+            None => m,
+        }
+    }
+}
 
 /// An emissive triangle.
 #[derive(Clone, Debug)]
 pub struct AreaLight {
     /// Index of the triangle in the scene (build order).
     pub prim: u32,
-    /// Index into [`LightSet::spectra`].
+    /// Index into [`LightSet::emitters`].
     pub emission: u32,
     pub two_sided: bool,
     pub area: f32,
@@ -23,13 +42,15 @@ pub struct LightPoint {
     pub p_err: Vec3,
     /// Unit normal of the light's front face.
     pub n: Vec3,
+    /// Barycentric coordinates of `p` for vertices 1 and 2.
+    pub b: [f32; 2],
 }
 
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
     pub lights: Vec<AreaLight>,
-    /// Emitted spectral radiance of each distinct emitter.
-    pub spectra: Vec<Spectrum>,
+    /// What each distinct emitter sends out.
+    pub emitters: Vec<Emitter>,
     /// Cumulative selection probabilities (last = 1).
     cdf: Vec<f32>,
     /// Selection probability of each light.
@@ -37,14 +58,12 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    pub fn new(lights: Vec<AreaLight>, spectra: Vec<Spectrum>) -> Self {
+    pub fn new(lights: Vec<AreaLight>, emitters: Vec<Emitter>) -> Self {
         // Power ∝ area · (π per emitting side) · mean spectral radiance. The
         // plain spectral mean (not luminance) keeps every light that emits
-        // anything selectable, also where the eye barely sees it.
-        let mean: Vec<f64> = spectra
-            .iter()
-            .map(|s| s.average(LAMBDA_MIN, LAMBDA_MAX).max(0.0) as f64)
-            .collect();
+        // anything selectable, also where the eye barely sees it. Textured
+        // emitters count with their texture's mean.
+        let mean: Vec<f64> = emitters.iter().map(Emitter::mean).collect();
         let power: Vec<f64> = lights
             .iter()
             .map(|l| {
@@ -69,7 +88,7 @@ impl LightSet {
         }
         Self {
             lights,
-            spectra,
+            emitters,
             cdf,
             pmf,
         }
@@ -96,20 +115,27 @@ impl LightSet {
         self.pmf[light]
     }
 
-    /// Radiance leaving light `light` at a point with front normal `n`
-    /// towards direction `w` (unit, pointing away from the light).
+    /// Radiance leaving light `light` at a point with front normal `n` and
+    /// texture coordinates `uv` towards direction `w` (unit, pointing away
+    /// from the light).
     pub fn emitted(
         &self,
         light: usize,
         n: Vec3,
         w: Vec3,
+        uv: Vec2,
         wl: &SampledWavelengths,
     ) -> SampledSpectrum {
         let l = &self.lights[light];
         if !l.two_sided && n.dot(w) <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        self.spectra[l.emission as usize].sample(wl)
+        let e = &self.emitters[l.emission as usize];
+        let le = e.spectrum.sample(wl);
+        match &e.texture {
+            Some(t) => le * t.spectrum(uv, wl),
+            None => le,
+        }
     }
 
     /// A uniformly distributed point on light `light`'s triangle `tri`.
@@ -124,6 +150,7 @@ impl LightSet {
             p,
             p_err: p_err * crate::geometry::gamma(6),
             n,
+            b: [b[1], b2],
         }
     }
 }
@@ -131,6 +158,13 @@ impl LightSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn emitter(v: f32) -> Emitter {
+        Emitter {
+            spectrum: Spectrum::Constant(v),
+            texture: None,
+        }
+    }
 
     #[test]
     fn selection_follows_power() {
@@ -154,10 +188,7 @@ mod tests {
                 area: 1.0,
             },
         ];
-        let set = LightSet::new(
-            lights,
-            vec![Spectrum::Constant(1.0), Spectrum::Constant(3.0)],
-        );
+        let set = LightSet::new(lights, vec![emitter(1.0), emitter(3.0)]);
         let pmf: Vec<f32> = (0..3).map(|i| set.pmf(i)).collect();
         assert!((pmf[0] - 1.0 / 6.0).abs() < 1e-6);
         assert!((pmf[1] - 3.0 / 6.0).abs() < 1e-6);
@@ -172,7 +203,7 @@ mod tests {
                 two_sided: false,
                 area: 1.0,
             }],
-            vec![Spectrum::Constant(0.0)],
+            vec![emitter(0.0)],
         );
         assert!(dark.choose(0.5).is_none());
     }

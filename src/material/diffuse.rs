@@ -71,7 +71,7 @@ mod tests {
     #[test]
     fn albedo_is_the_reflectance_and_sampling_matches_pdf() {
         let m = Material::Diffuse {
-            reflectance: Spectrum::Constant(0.7),
+            reflectance: Spectrum::Constant(0.7).into(),
         };
         let geom = ShadingGeometry {
             ng: Vec3::Z,
@@ -80,6 +80,7 @@ mod tests {
         };
         let bsdf = m.bsdf(
             &geom,
+            glam::Vec2::ZERO,
             &mut SampledWavelengths::sample_visible(0.5),
             SampledSpectrum::ONE,
         );
@@ -100,6 +101,7 @@ mod tests {
         };
         let Bsdf::Diffuse(b) = m.bsdf(
             &back,
+            glam::Vec2::ZERO,
             &mut SampledWavelengths::sample_visible(0.5),
             SampledSpectrum::ONE,
         ) else {

@@ -8,21 +8,72 @@ pub mod fresnel;
 pub mod ior;
 pub mod metals;
 pub mod microfacet;
+pub mod pbr;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3, Vec4};
 
 pub use conductor::ConductorBsdf;
 pub use dielectric::DielectricBsdf;
 pub use diffuse::DiffuseBsdf;
 pub use ior::Ior;
+pub use pbr::PbrBsdf;
 
 use crate::geometry::Frame;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
+use crate::texture::TextureRef;
+
+/// A reflectance that may vary over the surface: a spectrum, times a colour
+/// texture when there is one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reflectance {
+    pub factor: Spectrum,
+    pub texture: Option<TextureRef>,
+}
+
+impl Reflectance {
+    pub fn sample(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
+        let f = self.factor.sample(wl);
+        match &self.texture {
+            Some(t) => f * t.spectrum(uv, wl),
+            None => f,
+        }
+    }
+}
+
+impl From<Spectrum> for Reflectance {
+    fn from(factor: Spectrum) -> Self {
+        Self {
+            factor,
+            texture: None,
+        }
+    }
+}
+
+/// The glTF 2.0 metallic-roughness material (see [`pbr`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PbrMaterial {
+    pub base_color: Reflectance,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// Roughness in the green channel, metalness in blue (glTF), linear.
+    pub metallic_roughness: Option<TextureRef>,
+    /// Index of refraction of the dielectric coat (KHR_materials_ior).
+    pub ior: f32,
+    pub normal_map: Option<NormalMap>,
+}
+
+/// A tangent-space normal map (glTF convention: +Y up, MikkTSpace tangents).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalMap {
+    pub texture: TextureRef,
+    /// Scales the map's X and Y (glTF `normalTexture.scale`).
+    pub scale: f32,
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     /// Lambertian reflection.
-    Diffuse { reflectance: Spectrum },
+    Diffuse { reflectance: Reflectance },
     /// A metal with complex index n + ik (relative to the outside medium);
     /// α = 0 is a mirror.
     Conductor {
@@ -33,6 +84,8 @@ pub enum Material {
     /// A transparent dielectric; `priority` resolves overlapping volumes
     /// (higher wins, Schmidt & Budge 2002).
     Dielectric { ior: Ior, alpha: f32, priority: i32 },
+    /// glTF metallic-roughness (imported assets).
+    Pbr(Box<PbrMaterial>),
 }
 
 /// A BSDF sample: direction, value, density (solid angle).
@@ -53,6 +106,7 @@ pub enum Bsdf {
     Diffuse(DiffuseBsdf),
     Conductor(ConductorBsdf),
     Dielectric(DielectricBsdf),
+    Pbr(PbrBsdf),
 }
 
 /// Geometry of the hit a BSDF is built for.
@@ -73,12 +127,28 @@ impl Material {
     pub fn bsdf(
         &self,
         geom: &ShadingGeometry,
+        uv: Vec2,
         wl: &mut SampledWavelengths,
         eta: SampledSpectrum,
     ) -> Bsdf {
         match self {
             Material::Diffuse { reflectance } => {
-                Bsdf::Diffuse(DiffuseBsdf::new(reflectance.sample(wl), geom))
+                Bsdf::Diffuse(DiffuseBsdf::new(reflectance.sample(uv, wl), geom))
+            }
+            Material::Pbr(m) => {
+                let (mut metallic, mut roughness) = (m.metallic, m.roughness);
+                if let Some(t) = &m.metallic_roughness {
+                    let v = t.linear(uv);
+                    roughness *= v.y;
+                    metallic *= v.z;
+                }
+                Bsdf::Pbr(PbrBsdf::new(
+                    m.base_color.sample(uv, wl),
+                    metallic,
+                    microfacet::alpha_from_roughness(roughness),
+                    m.ior,
+                    geom,
+                ))
             }
             Material::Conductor { eta, k, alpha } => Bsdf::Conductor(ConductorBsdf::new(
                 eta.sample(wl),
@@ -93,6 +163,34 @@ impl Material {
                 }
                 Bsdf::Dielectric(bsdf)
             }
+        }
+    }
+
+    /// The shading normal after the material's normal map, if it has one.
+    /// `tangent` is the interpolated tangent (xyz) with the bitangent sign
+    /// in w; a zero tangent (no texture coordinates) leaves `ns` as it is.
+    pub fn shading_normal(&self, ns: Vec3, tangent: Vec4, uv: Vec2) -> Vec3 {
+        let Material::Pbr(m) = self else {
+            return ns;
+        };
+        let Some(map) = &m.normal_map else {
+            return ns;
+        };
+        // Gram-Schmidt: the interpolated tangent need not be orthogonal.
+        let t = (tangent.truncate() - ns * ns.dot(tangent.truncate())).normalize_or_zero();
+        if t == Vec3::ZERO {
+            return ns;
+        }
+        let b = ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        let v = map.texture.linear(uv);
+        let x = (2.0 * v.x - 1.0) * map.scale;
+        let y = (2.0 * v.y - 1.0) * map.scale;
+        let z = 2.0 * v.z - 1.0;
+        let n = (t * x + b * y + ns * z).normalize_or_zero();
+        if n == Vec3::ZERO {
+            ns
+        } else {
+            n
         }
     }
 
@@ -118,6 +216,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.eval(wi),
             Bsdf::Conductor(b) => b.eval(wi),
             Bsdf::Dielectric(b) => b.eval(wi),
+            Bsdf::Pbr(b) => b.eval(wi),
         }
     }
 
@@ -127,6 +226,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.pdf(wi),
             Bsdf::Conductor(b) => b.pdf(wi),
             Bsdf::Dielectric(b) => b.pdf(wi),
+            Bsdf::Pbr(b) => b.pdf(wi),
         }
     }
 
@@ -136,13 +236,14 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.sample(u),
             Bsdf::Conductor(b) => b.sample(u),
             Bsdf::Dielectric(b) => b.sample(uc, u),
+            Bsdf::Pbr(b) => b.sample(uc, u),
         }
     }
 
     /// Only Dirac lobes: light sampling cannot help.
     pub fn is_specular(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => false,
+            Bsdf::Diffuse(_) | Bsdf::Pbr(_) => false,
             Bsdf::Conductor(b) => b.is_specular(),
             Bsdf::Dielectric(b) => b.is_specular(),
         }
@@ -154,6 +255,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.frame().n,
             Bsdf::Conductor(b) => b.frame().n,
             Bsdf::Dielectric(b) => b.frame().n,
+            Bsdf::Pbr(b) => b.frame().n,
         };
         n.dot(wi).abs()
     }

@@ -28,8 +28,12 @@ pub struct SceneFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
-    pub position: [f32; 3],
-    pub look_at: [f32; 3],
+    pub position: Option<[f32; 3]>,
+    pub look_at: Option<[f32; 3]>,
+    /// Take the camera from a glTF file (its first perspective camera, or
+    /// the one called `name`) instead of position/look_at/up/fov.
+    pub from_file: Option<PathBuf>,
+    pub name: Option<String>,
     #[serde(default = "default_up")]
     pub up: [f32; 3],
     /// Vertical field of view in degrees (default 40 unless focal_length is given).
@@ -133,6 +137,8 @@ pub enum MaterialSpec {
     Diffuse {
         #[serde(default = "default_reflectance")]
         reflectance: SpectrumSpec,
+        /// An image (sRGB colour) that multiplies `reflectance`.
+        texture: Option<PathBuf>,
     },
     /// A metal: `metal = "Au" | "Ag" | "Cu" | "Al"`, or `eta` and `k` spectra.
     Conductor {
@@ -168,6 +174,7 @@ fn default_reflectance() -> SpectrumSpec {
 #[serde(rename_all = "lowercase")]
 pub enum ShapeKind {
     Obj,
+    Gltf,
     Quad,
     Sphere,
 }
@@ -190,8 +197,12 @@ pub struct ShapeSpec {
     #[serde(default)]
     pub flip_normals: bool,
     pub transform: Option<TransformSpec>,
-    /// obj: path of the OBJ file, relative to the scene file.
+    /// obj, gltf: path of the file, relative to the scene file.
     pub file: Option<PathBuf>,
+    /// obj, gltf: only the meshes (glTF) or objects/groups (OBJ) of this name.
+    pub mesh: Option<String>,
+    /// obj, gltf: the file's materials to replace, by name → scene material.
+    pub materials: Option<BTreeMap<String, String>>,
     /// quad: four corners in order; the front face is counter-clockwise.
     pub vertices: Option<[[f32; 3]; 4]>,
     /// sphere: centre and radius.
@@ -199,7 +210,7 @@ pub struct ShapeSpec {
     pub radius: Option<f32>,
     /// sphere: segments around the equator (default 64).
     pub segments: Option<u32>,
-    /// sphere and obj: interpolate vertex normals (default true).
+    /// sphere, obj, gltf: interpolate vertex normals (default true).
     pub smooth: Option<bool>,
 }
 

@@ -1,21 +1,23 @@
 //! Scene file → runtime [`Scene`]: parse, validate, resolve names, spectra
 //! and files. Every failure names the file and the key at fault.
 
-use std::collections::BTreeMap;
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 use glam::{Mat4, Quat, Vec3};
 
 use super::format::{MaterialSpec, ScaleSpec, SceneFile, ShapeKind, ShapeSpec, TransformSpec};
+use super::import::{self, Asset, TextureCache};
 use super::spectrum_spec::{IorSpec, SpectrumSpec};
 use super::{Emission, Mesh, RenderSettings, Scene, ShapeInstance};
 use crate::camera::{fov_from_focal_length, Camera};
 use crate::material::microfacet::alpha_from_roughness;
 use crate::material::{ior, metals, Ior, Material};
-use crate::spectrum::{
-    cie, csv, rgb2spec, RgbSpectrum, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN,
-};
+use crate::spectrum::{cie, csv, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::texture::{Encoding, TextureRef};
 
 /// Largest image side accepted.
 const MAX_RESOLUTION: u32 = 32_768;
@@ -51,26 +53,26 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| err(format!("cannot read the scene file: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    Loader {
-        scene_file: path.to_path_buf(),
-        base: base.to_path_buf(),
-    }
-    .load(&text)
+    Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text)
 }
 
 /// Loads a scene from TOML text; `base` is the folder relative paths start from.
 pub fn load_str(text: &str, base: &Path) -> Result<Scene, SceneError> {
-    Loader {
-        scene_file: PathBuf::from("<scene>"),
-        base: base.to_path_buf(),
-    }
-    .load(text)
+    Loader::new(PathBuf::from("<scene>"), base.to_path_buf()).load(text)
 }
 
 struct Loader {
     scene_file: PathBuf,
     base: PathBuf,
+    /// Images decoded so far, shared by every material that uses them.
+    textures: RefCell<TextureCache>,
+    /// OBJ and glTF files read so far: instances of one file read it once.
+    assets: RefCell<HashMap<PathBuf, Rc<Asset>>>,
+    warnings: RefCell<Vec<String>>,
 }
+
+/// Where an asset's materials went in the scene's list, per asset file.
+type AssetMaterialSlots = HashMap<(PathBuf, usize), u32>;
 
 /// Which physical quantity a spectrum stands for: it decides how RGB is
 /// upsampled and which values are allowed.
@@ -81,6 +83,16 @@ enum Role {
 }
 
 impl Loader {
+    fn new(scene_file: PathBuf, base: PathBuf) -> Self {
+        Self {
+            scene_file,
+            base,
+            textures: RefCell::default(),
+            assets: RefCell::default(),
+            warnings: RefCell::default(),
+        }
+    }
+
     fn error(&self, message: impl Into<String>) -> SceneError {
         SceneError {
             file: self.scene_file.clone(),
@@ -111,20 +123,21 @@ impl Loader {
         }
         let default_material = materials.len() as u32;
         materials.push(Material::Diffuse {
-            reflectance: Spectrum::Constant(0.5),
+            reflectance: Spectrum::Constant(0.5).into(),
         });
 
         let mut shapes = Vec::new();
+        let mut slots = AssetMaterialSlots::new();
         for (i, shape) in file.shapes.iter().enumerate() {
             let key = format!("shape[{i}]");
             let material = match &shape.material {
-                None => default_material,
-                Some(name) => *material_index.get(name).ok_or_else(|| {
+                None => None,
+                Some(name) => Some(*material_index.get(name).ok_or_else(|| {
                     self.error(format!(
                         "`{key}.material`: no material named `{name}` (defined: {})",
                         list(file.materials.keys())
                     ))
-                })?,
+                })?),
             };
             let emission = match &shape.emission {
                 None => {
@@ -146,18 +159,213 @@ impl Loader {
                         spectrum: self
                             .spectrum(spec, Role::Emission, &file, &format!("{key}.emission"))?
                             .scaled(scale),
+                        texture: None,
                         two_sided: shape.two_sided.unwrap_or(false),
                     })
                 }
             };
-            let mesh = self.mesh(shape, &key)?;
-            shapes.push(ShapeInstance {
-                mesh,
-                material,
-                emission,
-            });
+            match shape.kind {
+                ShapeKind::Obj | ShapeKind::Gltf => {
+                    let overrides = self.overrides(shape, &key, &material_index, &file)?;
+                    for (mut mesh, m, e) in
+                        self.asset_pieces(shape, &key, &overrides, &mut materials, &mut slots)?
+                    {
+                        self.place(&mut mesh, shape, &key)?;
+                        shapes.push(ShapeInstance {
+                            mesh,
+                            material: material.unwrap_or(m.unwrap_or(default_material)),
+                            emission: emission.clone().or(e),
+                        });
+                    }
+                }
+                ShapeKind::Quad | ShapeKind::Sphere => {
+                    let mut mesh = self.mesh(shape, &key)?;
+                    self.place(&mut mesh, shape, &key)?;
+                    shapes.push(ShapeInstance {
+                        mesh,
+                        material: material.unwrap_or(default_material),
+                        emission,
+                    });
+                }
+            }
         }
-        Ok(Scene::build(camera, settings, materials, shapes))
+        let mut scene = Scene::build(camera, settings, materials, shapes);
+        scene.warnings = self.warnings.take();
+        Ok(scene)
+    }
+
+    /// A shape's `materials` table: asset material name → scene material.
+    fn overrides(
+        &self,
+        shape: &ShapeSpec,
+        key: &str,
+        material_index: &BTreeMap<String, u32>,
+        file: &SceneFile,
+    ) -> Result<HashMap<String, u32>, SceneError> {
+        let mut out = HashMap::new();
+        for (asset_name, scene_name) in shape.materials.iter().flatten() {
+            let index = material_index.get(scene_name).ok_or_else(|| {
+                self.error(format!(
+                    "`{key}.materials.{asset_name}`: no material named `{scene_name}` (defined: {})",
+                    list(file.materials.keys())
+                ))
+            })?;
+            out.insert(asset_name.clone(), *index);
+        }
+        Ok(out)
+    }
+
+    /// Reads an OBJ or glTF file once (later instances reuse it) and
+    /// reports what it ignored.
+    fn asset(
+        &self,
+        path: &Path,
+        kind: ShapeKind,
+        smooth: bool,
+        key: &str,
+    ) -> Result<Rc<Asset>, SceneError> {
+        if let Some(a) = self.assets.borrow().get(path) {
+            return Ok(a.clone());
+        }
+        let textures = &mut self.textures.borrow_mut();
+        let asset = match kind {
+            ShapeKind::Obj => import::obj::load(path, smooth, textures),
+            _ => import::gltf::load(path, textures),
+        }
+        .map_err(|e| self.error(format!("`{key}`: {}: {e}", path.display())))?;
+        let mut warnings = self.warnings.borrow_mut();
+        warnings.extend(asset.warnings.iter().cloned());
+        if !asset.ignored.is_empty() {
+            warnings.push(format!(
+                "{}: not mapped, ignored: {}",
+                path.display(),
+                asset.ignored.join(", ")
+            ));
+        }
+        let asset = Rc::new(asset);
+        self.assets
+            .borrow_mut()
+            .insert(path.to_path_buf(), asset.clone());
+        Ok(asset)
+    }
+
+    /// The meshes of an OBJ or glTF shape with their scene materials
+    /// (`None`: the scene default) and emission.
+    #[allow(clippy::type_complexity)]
+    fn asset_pieces(
+        &self,
+        shape: &ShapeSpec,
+        key: &str,
+        overrides: &HashMap<String, u32>,
+        materials: &mut Vec<Material>,
+        slots: &mut AssetMaterialSlots,
+    ) -> Result<Vec<(Mesh, Option<u32>, Option<Emission>)>, SceneError> {
+        let allowed = ["file", "smooth", "mesh", "materials"];
+        self.only(shape, key, &allowed)?;
+        let kind = if shape.kind == ShapeKind::Obj {
+            "an OBJ"
+        } else {
+            "a glTF"
+        };
+        let rel = shape.file.as_ref().ok_or_else(|| {
+            self.error(format!(
+                "`{key}`: a shape of type {:?} needs `file`",
+                shape.kind
+            ))
+        })?;
+        let path = self.base.join(rel);
+        if path.is_dir() {
+            return Err(self.error(format!(
+                "`{key}.file`: {} is a directory, not {kind} file",
+                path.display()
+            )));
+        }
+        if !path.exists() {
+            return Err(self.error(format!("`{key}.file`: {} does not exist", path.display())));
+        }
+        let smooth = shape.smooth.unwrap_or(true);
+        let asset = self.asset(&path, shape.kind, smooth, &format!("{key}.file"))?;
+        for name in overrides.keys() {
+            if !asset.materials.iter().any(|m| &m.name == name) {
+                let names: Vec<&String> = asset.materials.iter().map(|m| &m.name).collect();
+                return Err(self.error(format!(
+                    "`{key}.materials.{name}`: {} has no material `{name}` (it has: {})",
+                    path.display(),
+                    list(names.into_iter())
+                )));
+            }
+        }
+        let mut out = Vec::new();
+        for piece in &asset.pieces {
+            if shape.mesh.as_ref().is_some_and(|m| m != &piece.name) {
+                continue;
+            }
+            let (material, emission) = match piece.material {
+                None => (None, None),
+                Some(i) => {
+                    let m = &asset.materials[i];
+                    let index = match overrides.get(&m.name) {
+                        Some(&o) => o,
+                        None => *slots.entry((path.clone(), i)).or_insert_with(|| {
+                            materials.push(m.material.clone());
+                            materials.len() as u32 - 1
+                        }),
+                    };
+                    (Some(index), m.emission.clone())
+                }
+            };
+            out.push((piece.mesh.clone(), material, emission));
+        }
+        if out.is_empty() {
+            let mut names: Vec<&String> = asset.pieces.iter().map(|p| &p.name).collect();
+            names.dedup();
+            return Err(self.error(format!(
+                "`{key}.mesh`: {} has no mesh `{}` (it has: {})",
+                path.display(),
+                shape.mesh.as_deref().unwrap_or(""),
+                list(names.into_iter())
+            )));
+        }
+        Ok(out)
+    }
+
+    /// Applies a shape's transform and winding flip, and checks the result.
+    fn place(&self, mesh: &mut Mesh, shape: &ShapeSpec, key: &str) -> Result<(), SceneError> {
+        if let Some(t) = &shape.transform {
+            mesh.transform(&self.transform(t, key)?);
+        }
+        if shape.flip_normals {
+            mesh.flip();
+        }
+        if mesh.positions.iter().any(|p| !p.is_finite()) {
+            return Err(self.error(format!(
+                "`{key}`: vertex positions are not finite (after the transform)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Rejects keys that do not apply to the shape's type.
+    fn only(&self, shape: &ShapeSpec, key: &str, allowed: &[&str]) -> Result<(), SceneError> {
+        let given = [
+            ("file", shape.file.is_some()),
+            ("mesh", shape.mesh.is_some()),
+            ("materials", shape.materials.is_some()),
+            ("vertices", shape.vertices.is_some()),
+            ("center", shape.center.is_some()),
+            ("radius", shape.radius.is_some()),
+            ("segments", shape.segments.is_some()),
+            ("smooth", shape.smooth.is_some()),
+        ];
+        for (name, present) in given {
+            if present && !allowed.contains(&name) {
+                return Err(self.error(format!(
+                    "`{key}.{name}` does not apply to a shape of type {:?}",
+                    shape.kind
+                )));
+            }
+        }
+        Ok(())
     }
 
     fn material(
@@ -174,13 +382,30 @@ impl Loader {
             Ok(alpha_from_roughness(r))
         };
         Ok(match spec {
-            MaterialSpec::Diffuse { reflectance } => Material::Diffuse {
-                reflectance: self.spectrum(
-                    reflectance,
-                    Role::Reflectance,
-                    file,
-                    &format!("{key}.reflectance"),
-                )?,
+            MaterialSpec::Diffuse {
+                reflectance,
+                texture,
+            } => Material::Diffuse {
+                reflectance: crate::material::Reflectance {
+                    factor: self.spectrum(
+                        reflectance,
+                        Role::Reflectance,
+                        file,
+                        &format!("{key}.reflectance"),
+                    )?,
+                    texture: match texture {
+                        None => None,
+                        Some(rel) => {
+                            let path = self.base.join(rel);
+                            let t = self
+                                .textures
+                                .borrow_mut()
+                                .file(&path, Encoding::SrgbColour)
+                                .map_err(|e| self.error(format!("`{key}.texture`: {e}")))?;
+                            Some(TextureRef::new(t))
+                        }
+                    },
+                },
             },
             MaterialSpec::Conductor {
                 metal,
@@ -292,6 +517,17 @@ impl Loader {
 
     fn camera(&self, file: &SceneFile, s: &RenderSettings) -> Result<Camera, SceneError> {
         let c = &file.camera;
+        if let Some(rel) = &c.from_file {
+            return self.asset_camera(rel, file, s);
+        }
+        if c.name.is_some() {
+            return Err(self.error("`camera.name` needs `camera.from_file`"));
+        }
+        let (Some(position), Some(look_at)) = (c.position, c.look_at) else {
+            return Err(self.error(
+                "`camera` needs `position` and `look_at` (or `from_file` with a glTF camera)",
+            ));
+        };
         let fov = match (c.fov, c.focal_length) {
             (Some(_), Some(_)) => {
                 return Err(self.error("`camera`: give either `fov` or `focal_length`, not both"))
@@ -311,11 +547,7 @@ impl Loader {
                 "`camera.fov` must be between 0 and 180 degrees, found {fov}"
             )));
         }
-        let (pos, at, up) = (
-            Vec3::from(c.position),
-            Vec3::from(c.look_at),
-            Vec3::from(c.up),
-        );
+        let (pos, at, up) = (Vec3::from(position), Vec3::from(look_at), Vec3::from(c.up));
         let forward = at - pos;
         if forward.length_squared() == 0.0 {
             return Err(self.error("`camera.look_at` must differ from `camera.position`"));
@@ -324,6 +556,70 @@ impl Loader {
             return Err(self.error("`camera.up` must not be parallel to the viewing direction"));
         }
         Ok(Camera::look_at(pos, at, up, fov, s.width, s.height))
+    }
+
+    /// The camera of a glTF file: the one called `camera.name`, or the first.
+    fn asset_camera(
+        &self,
+        rel: &Path,
+        file: &SceneFile,
+        s: &RenderSettings,
+    ) -> Result<Camera, SceneError> {
+        let c = &file.camera;
+        if c.position.is_some()
+            || c.look_at.is_some()
+            || c.fov.is_some()
+            || c.focal_length.is_some()
+        {
+            return Err(self.error(
+                "`camera.from_file` takes the whole camera from the file: drop position, look_at, fov and focal_length",
+            ));
+        }
+        let path = self.base.join(rel);
+        if !path.is_file() {
+            return Err(self.error(format!(
+                "`camera.from_file`: {} does not exist or is not a file",
+                path.display()
+            )));
+        }
+        let asset = self.asset(&path, ShapeKind::Gltf, true, "camera.from_file")?;
+        let names: Vec<&String> = asset.cameras.iter().map(|c| &c.name).collect();
+        let found = match &c.name {
+            Some(name) => asset.cameras.iter().find(|cam| &cam.name == name),
+            None => asset.cameras.first(),
+        };
+        let Some(cam) = found else {
+            return Err(self.error(format!(
+                "`camera.from_file`: {} has no {} (cameras: {})",
+                path.display(),
+                c.name
+                    .as_ref()
+                    .map_or("perspective camera".to_string(), |n| format!(
+                        "camera `{n}`"
+                    )),
+                list(names.into_iter())
+            )));
+        };
+        if cam.forward == Vec3::ZERO || cam.forward.cross(cam.up).length_squared() < 1e-12 {
+            return Err(self.error(format!(
+                "`camera.from_file`: camera `{}` has a degenerate transform",
+                cam.name
+            )));
+        }
+        if !(cam.yfov > 0.0 && cam.yfov < 180.0) {
+            return Err(self.error(format!(
+                "`camera.from_file`: camera `{}` has a field of view of {} degrees",
+                cam.name, cam.yfov
+            )));
+        }
+        Ok(Camera::look_at(
+            cam.position,
+            cam.position + cam.forward,
+            cam.up,
+            cam.yfov,
+            s.width,
+            s.height,
+        ))
     }
 
     fn spectrum(
@@ -380,27 +676,9 @@ impl Loader {
                             return Err(self
                                 .error(format!("`{key}`: a reflectance RGB must lie in [0, 1]")));
                         }
-                        let (sigmoid, s) = rgb2spec::albedo(rgb);
-                        Spectrum::Rgb(RgbSpectrum {
-                            sigmoid,
-                            scale: s,
-                            illuminant: None,
-                        })
-                        .scaled(*scale)
+                        Spectrum::rgb_reflectance(rgb).scaled(*scale)
                     }
-                    Role::Emission => {
-                        // Emission RGB is relative to the sRGB white, D65,
-                        // normalised so that rgb (1, 1, 1) has luminance 1.
-                        let (sigmoid, s) = rgb2spec::unbounded(rgb);
-                        let d65 = cie::d65();
-                        let y = cie::spectrum_to_xyz(&Spectrum::Table(d65.clone())).y;
-                        Spectrum::Rgb(RgbSpectrum {
-                            sigmoid,
-                            scale: s / y,
-                            illuminant: Some(d65.clone()),
-                        })
-                        .scaled(*scale)
-                    }
+                    Role::Emission => Spectrum::rgb_emission(rgb).scaled(*scale),
                 }
             }
         };
@@ -453,58 +731,22 @@ impl Loader {
         Ok(())
     }
 
+    /// The mesh of a built-in shape (quad or sphere).
     fn mesh(&self, shape: &ShapeSpec, key: &str) -> Result<Mesh, SceneError> {
-        let only = |allowed: &[&str]| -> Result<(), SceneError> {
-            let given = [
-                ("file", shape.file.is_some()),
-                ("vertices", shape.vertices.is_some()),
-                ("center", shape.center.is_some()),
-                ("radius", shape.radius.is_some()),
-                ("segments", shape.segments.is_some()),
-                ("smooth", shape.smooth.is_some()),
-            ];
-            for (name, present) in given {
-                if present && !allowed.contains(&name) {
-                    return Err(self.error(format!(
-                        "`{key}.{name}` does not apply to a shape of type {:?}",
-                        shape.kind
-                    )));
-                }
-            }
-            Ok(())
-        };
         let missing = |name: &str| {
             self.error(format!(
                 "`{key}`: a shape of type {:?} needs `{name}`",
                 shape.kind
             ))
         };
-        let mut mesh = match shape.kind {
-            ShapeKind::Obj => {
-                only(&["file", "smooth"])?;
-                let rel = shape.file.as_ref().ok_or_else(|| missing("file"))?;
-                let path = self.base.join(rel);
-                if path.is_dir() {
-                    return Err(self.error(format!(
-                        "`{key}.file`: {} is a directory, not an OBJ file",
-                        path.display()
-                    )));
-                }
-                if !path.exists() {
-                    return Err(
-                        self.error(format!("`{key}.file`: {} does not exist", path.display()))
-                    );
-                }
-                Mesh::load_obj(&path, shape.smooth.unwrap_or(true))
-                    .map_err(|e| self.error(format!("`{key}.file`: {}: {e}", path.display())))?
-            }
+        Ok(match shape.kind {
             ShapeKind::Quad => {
-                only(&["vertices"])?;
+                self.only(shape, key, &["vertices"])?;
                 let v = shape.vertices.ok_or_else(|| missing("vertices"))?;
                 Mesh::quad(v.map(Vec3::from))
             }
-            ShapeKind::Sphere => {
-                only(&["center", "radius", "segments", "smooth"])?;
+            _ => {
+                self.only(shape, key, &["center", "radius", "segments", "smooth"])?;
                 let r = shape.radius.ok_or_else(|| missing("radius"))?;
                 if !(r > 0.0) {
                     return Err(self.error(format!("`{key}.radius` must be positive")));
@@ -522,19 +764,7 @@ impl Loader {
                     shape.smooth.unwrap_or(true),
                 )
             }
-        };
-        if let Some(t) = &shape.transform {
-            mesh.transform(&self.transform(t, key)?);
-        }
-        if shape.flip_normals {
-            mesh.flip();
-        }
-        if mesh.positions.iter().any(|p| !p.is_finite()) {
-            return Err(self.error(format!(
-                "`{key}`: vertex positions are not finite (after the transform)"
-            )));
-        }
-        Ok(mesh)
+        })
     }
 
     fn transform(&self, t: &TransformSpec, key: &str) -> Result<Mat4, SceneError> {

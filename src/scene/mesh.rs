@@ -1,9 +1,8 @@
 //! Triangle meshes: built-in shapes, OBJ files, and transforms.
 
 use std::f32::consts::PI;
-use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 /// An indexed triangle mesh in world space.
 #[derive(Clone, Debug, Default)]
@@ -11,6 +10,10 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Per-vertex normals for smooth shading, if any.
     pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates (v down, as in glTF), if any.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Per-vertex tangents (xyz) with the bitangent sign (w), for normal maps.
+    pub tangents: Option<Vec<Vec4>>,
     pub indices: Vec<[u32; 3]>,
 }
 
@@ -19,8 +22,8 @@ impl Mesh {
     pub fn quad(corners: [Vec3; 4]) -> Mesh {
         Mesh {
             positions: corners.to_vec(),
-            normals: None,
             indices: vec![[0, 1, 2], [0, 2, 3]],
+            ..Default::default()
         }
     }
 
@@ -59,58 +62,8 @@ impl Mesh {
             positions,
             normals: smooth.then_some(normals),
             indices,
-        }
-    }
-
-    /// Reads an OBJ file (any polygons, triangulated). Vertex normals are
-    /// kept for smooth shading when the file has them and `smooth` is set.
-    pub fn load_obj(path: &Path, smooth: bool) -> Result<Mesh, String> {
-        let options = tobj::LoadOptions {
-            triangulate: true,
-            single_index: true,
             ..Default::default()
-        };
-        let (models, _materials) =
-            tobj::load_obj(path, &options).map_err(|e| format!("cannot read OBJ: {e}"))?;
-        let mut mesh = Mesh::default();
-        let mut all_have_normals = true;
-        let mut normals = Vec::new();
-        for model in &models {
-            let m = &model.mesh;
-            let base = mesh.positions.len() as u32;
-            let count = m.positions.len() / 3;
-            for v in m.positions.chunks_exact(3) {
-                mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
-            }
-            if m.normals.len() == m.positions.len() {
-                normals.extend(
-                    m.normals
-                        .chunks_exact(3)
-                        .map(|n| Vec3::new(n[0], n[1], n[2])),
-                );
-            } else {
-                all_have_normals = false;
-            }
-            for f in m.indices.chunks_exact(3) {
-                if f.iter().any(|&i| i as usize >= count) {
-                    return Err(format!(
-                        "face index out of range in object `{}`",
-                        model.name
-                    ));
-                }
-                mesh.indices.push([base + f[0], base + f[1], base + f[2]]);
-            }
         }
-        if mesh.indices.is_empty() {
-            return Err("the OBJ file has no faces".into());
-        }
-        if let Some(bad) = mesh.positions.iter().position(|p| !p.is_finite()) {
-            return Err(format!("vertex {} is not finite", bad + 1));
-        }
-        if smooth && all_have_normals && normals.iter().all(|n| n.is_finite()) {
-            mesh.normals = Some(normals);
-        }
-        Ok(mesh)
     }
 
     /// Applies an affine transform (normals by the inverse transpose).
@@ -118,15 +71,29 @@ impl Mesh {
         for p in &mut self.positions {
             *p = m.transform_point3(*p);
         }
+        let linear = Mat3::from_mat4(*m);
         if let Some(normals) = &mut self.normals {
-            let nm = Mat3::from_mat4(*m).inverse().transpose();
+            let nm = linear.inverse().transpose();
             for n in normals {
                 *n = (nm * *n).normalize_or_zero();
             }
         }
-        // A mirroring transform turns the winding, and so the front face.
-        if Mat3::from_mat4(*m).determinant() < 0.0 {
-            self.flip();
+        if let Some(tangents) = &mut self.tangents {
+            // Tangents follow the surface (they are directions in it).
+            for t in tangents {
+                *t = (linear * t.truncate()).normalize_or_zero().extend(t.w);
+            }
+        }
+        // A mirroring transform turns the winding, and so the front face:
+        // swap it back. Vertex normals (inverse transpose) are already right;
+        // the tangent frame's handedness changes.
+        if linear.determinant() < 0.0 {
+            for f in &mut self.indices {
+                f.swap(1, 2);
+            }
+            if let Some(tangents) = &mut self.tangents {
+                tangents.iter_mut().for_each(|t| t.w = -t.w);
+            }
         }
     }
 
@@ -137,6 +104,10 @@ impl Mesh {
         }
         if let Some(normals) = &mut self.normals {
             normals.iter_mut().for_each(|n| *n = -*n);
+        }
+        // The bitangent n × t changes sign with n; keep the map's frame.
+        if let Some(tangents) = &mut self.tangents {
+            tangents.iter_mut().for_each(|t| t.w = -t.w);
         }
     }
 }
@@ -171,5 +142,11 @@ mod tests {
         m.transform(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
         let p = m.indices[0].map(|i| m.positions[i as usize]);
         assert!((p[1] - p[0]).cross(p[2] - p[0]).z > 0.0);
+        // Smooth normals stay on the outside too.
+        let mut s = Mesh::sphere(Vec3::ZERO, 1.0, 8, true);
+        s.transform(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+        for (p, n) in s.positions.iter().zip(s.normals.as_ref().unwrap()) {
+            assert!(p.dot(*n) > 0.9, "{p} {n}");
+        }
     }
 }

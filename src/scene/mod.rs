@@ -2,11 +2,12 @@
 //! (triangles in BVH order, materials, lights, camera) that rendering reads.
 
 pub mod format;
+pub mod import;
 mod load;
 pub mod mesh;
 pub mod spectrum_spec;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3, Vec4};
 
 pub use format::{Strategy, Tonemap};
 pub use load::{check_film_size, check_spectral_layout, load, load_str, SceneError};
@@ -14,9 +15,10 @@ pub use mesh::Mesh;
 
 use crate::camera::Camera;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
-use crate::light::{AreaLight, LightSet};
+use crate::light::{AreaLight, Emitter, LightSet};
 use crate::material::Material;
 use crate::spectrum::Spectrum;
+use crate::texture::TextureRef;
 
 /// How to render: everything in a scene file that is not geometry.
 #[derive(Clone, Debug, PartialEq)]
@@ -39,6 +41,8 @@ pub struct RenderSettings {
 #[derive(Clone, Debug)]
 pub struct Emission {
     pub spectrum: Spectrum,
+    /// Multiplies `spectrum` over the surface (glTF emissiveTexture).
+    pub texture: Option<TextureRef>,
     pub two_sided: bool,
 }
 
@@ -49,16 +53,30 @@ pub struct ShapeInstance {
     pub emission: Option<Emission>,
 }
 
-/// Per-triangle data that shading needs.
+/// Per-triangle data that shading needs: where its vertices' attributes
+/// are in the scene's attribute arrays, and which of them it has.
 #[derive(Clone, Copy, Debug)]
 struct TriangleShading {
-    normals: Option<[Vec3; 3]>,
+    vertices: [u32; 3],
+    attributes: u8,
     material: u32,
     /// Index into the light set, or `NO_LIGHT`.
     light: u32,
 }
 
 const NO_LIGHT: u32 = u32::MAX;
+const HAS_NORMALS: u8 = 1;
+const HAS_UVS: u8 = 2;
+const HAS_TANGENTS: u8 = 4;
+
+/// Vertex attributes of every mesh, concatenated; a triangle's entries are
+/// only meaningful where its attribute flags say so.
+#[derive(Default)]
+struct VertexAttributes {
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    tangents: Vec<Vec4>,
+}
 
 /// A ray's closest surface hit.
 #[derive(Clone, Copy, Debug)]
@@ -71,6 +89,10 @@ pub struct SurfaceHit {
     pub ng: Vec3,
     /// Unit shading normal (interpolated vertex normals, or `ng`).
     pub ns: Vec3,
+    /// Texture coordinates (zero without them).
+    pub uv: Vec2,
+    /// Interpolated tangent with the bitangent sign in w (zero without).
+    pub tangent: Vec4,
     pub material: u32,
     pub light: Option<usize>,
 }
@@ -83,8 +105,11 @@ pub struct Scene {
     bvh: Bvh,
     triangles: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
+    attributes: VertexAttributes,
     /// Triangles dropped at build because they had no area.
     pub degenerate_triangles: usize,
+    /// Problems found while loading that did not stop it (printed by the CLI).
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -99,28 +124,55 @@ impl Scene {
         let mut triangles = Vec::new();
         let mut shading = Vec::new();
         let mut emitters: Vec<Option<u32>> = Vec::new();
-        let mut spectra = Vec::new();
+        let mut light_emitters = Vec::new();
         let mut two_sided = Vec::new();
+        let mut attributes = VertexAttributes::default();
         let mut degenerate = 0;
         for shape in shapes {
             let emission = shape.emission.map(|e| {
-                spectra.push(e.spectrum);
+                light_emitters.push(Emitter {
+                    spectrum: e.spectrum,
+                    texture: e.texture,
+                });
                 two_sided.push(e.two_sided);
-                spectra.len() as u32 - 1
+                light_emitters.len() as u32 - 1
             });
-            for idx in &shape.mesh.indices {
-                let p = idx.map(|i| shape.mesh.positions[i as usize]);
+            let mesh = shape.mesh;
+            // Attribute arrays grow together so one base index serves all.
+            let base = attributes.normals.len() as u32;
+            let n = mesh.positions.len();
+            let mut flags = 0;
+            match &mesh.normals {
+                Some(v) => {
+                    flags |= HAS_NORMALS;
+                    attributes.normals.extend_from_slice(v);
+                }
+                None => attributes.normals.resize(base as usize + n, Vec3::ZERO),
+            }
+            match &mesh.uvs {
+                Some(v) => {
+                    flags |= HAS_UVS;
+                    attributes.uvs.extend_from_slice(v);
+                }
+                None => attributes.uvs.resize(base as usize + n, Vec2::ZERO),
+            }
+            match &mesh.tangents {
+                Some(v) => {
+                    flags |= HAS_TANGENTS;
+                    attributes.tangents.extend_from_slice(v);
+                }
+                None => attributes.tangents.resize(base as usize + n, Vec4::ZERO),
+            }
+            for idx in &mesh.indices {
+                let p = idx.map(|i| mesh.positions[i as usize]);
                 if !(triangle::area(&p) > 0.0) {
                     degenerate += 1;
                     continue;
                 }
                 triangles.push(p);
                 shading.push(TriangleShading {
-                    normals: shape
-                        .mesh
-                        .normals
-                        .as_ref()
-                        .map(|n| idx.map(|i| n[i as usize])),
+                    vertices: idx.map(|i| base + i),
+                    attributes: flags,
                     material: shape.material,
                     light: NO_LIGHT,
                 });
@@ -148,11 +200,13 @@ impl Scene {
             camera,
             settings,
             materials,
-            lights: LightSet::new(lights, spectra),
+            lights: LightSet::new(lights, light_emitters),
             bvh,
             triangles,
             shading,
+            attributes,
             degenerate_triangles: degenerate,
+            warnings: Vec::new(),
         }
     }
 
@@ -181,26 +235,41 @@ impl Scene {
         let p = tri[0] * b0 + tri[1] * b1 + tri[2] * b2;
         let p_err = gamma(7) * ((tri[0] * b0).abs() + (tri[1] * b1).abs() + (tri[2] * b2).abs());
         let ng = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
-        let ns = match info.normals {
-            Some(n) => {
-                let s = n[0] * b0 + n[1] * b1 + n[2] * b2;
-                if s.length_squared() > 0.0 && s.is_finite() {
-                    s.normalize()
-                } else {
-                    ng
-                }
+        let [v0, v1, v2] = info.vertices.map(|v| v as usize);
+        let a = &self.attributes;
+        let mut ns = ng;
+        if info.attributes & HAS_NORMALS != 0 {
+            let s = a.normals[v0] * b0 + a.normals[v1] * b1 + a.normals[v2] * b2;
+            if s.length_squared() > 0.0 && s.is_finite() {
+                ns = s.normalize();
             }
-            None => ng,
-        };
+        }
+        let mut tangent = Vec4::ZERO;
+        if info.attributes & HAS_TANGENTS != 0 {
+            let t = a.tangents[v0] * b0 + a.tangents[v1] * b1 + a.tangents[v2] * b2;
+            tangent = t.truncate().extend(a.tangents[v0].w);
+        }
         Some(SurfaceHit {
             t: hit.t,
             p,
             p_err,
             ng,
             ns,
+            uv: self.uv_at(prim, [b1, b2]),
+            tangent,
             material: info.material,
             light: (info.light != NO_LIGHT).then_some(info.light as usize),
         })
+    }
+
+    /// Texture coordinates on triangle `prim` at barycentrics (b1, b2).
+    pub fn uv_at(&self, prim: u32, b: [f32; 2]) -> Vec2 {
+        let info = &self.shading[prim as usize];
+        if info.attributes & HAS_UVS == 0 {
+            return Vec2::ZERO;
+        }
+        let uv = info.vertices.map(|v| self.attributes.uvs[v as usize]);
+        uv[0] * (1.0 - b[0] - b[1]) + uv[1] * b[0] + uv[2] * b[1]
     }
 
     pub fn occluded(&self, ray: &Ray) -> bool {

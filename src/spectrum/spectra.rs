@@ -69,6 +69,30 @@ pub enum Spectrum {
 }
 
 impl Spectrum {
+    /// A reflectance for a linear sRGB albedo (components clamped to [0, 1]).
+    pub fn rgb_reflectance(rgb: glam::Vec3) -> Spectrum {
+        let (sigmoid, scale) = super::rgb2spec::albedo(rgb);
+        Spectrum::Rgb(RgbSpectrum {
+            sigmoid,
+            scale,
+            illuminant: None,
+        })
+    }
+
+    /// An emitted radiance for a linear sRGB value of any magnitude,
+    /// relative to the sRGB white (D65), normalised so that rgb (1, 1, 1)
+    /// has luminance 1.
+    pub fn rgb_emission(rgb: glam::Vec3) -> Spectrum {
+        let (sigmoid, scale) = super::rgb2spec::unbounded(rgb.max(glam::Vec3::ZERO));
+        let d65 = super::cie::d65();
+        let y = super::cie::spectrum_to_xyz(&Spectrum::Table(d65.clone())).y;
+        Spectrum::Rgb(RgbSpectrum {
+            sigmoid,
+            scale: scale / y,
+            illuminant: Some(d65.clone()),
+        })
+    }
+
     pub fn eval(&self, lambda: f32) -> f32 {
         match self {
             Spectrum::Constant(c) => *c,

@@ -2,6 +2,8 @@
 //! them, and compare Monte Carlo estimates with their standard errors.
 #![allow(dead_code)]
 
+pub mod assets;
+
 use std::path::Path;
 
 use prism::film::Film;

@@ -1,0 +1,295 @@
+//! Image textures: decoded once at load, shared by every material that uses
+//! them, looked up with bilinear (or nearest) filtering and a wrap mode.
+//!
+//! Colour textures are sRGB-decoded and every texel is upsampled to a
+//! reflectance spectrum at load (Jakob–Hanika coefficients per texel), so a
+//! lookup blends four spectra: filtering happens on spectra, as it should,
+//! not on RGB that is upsampled afterwards. Data textures (roughness,
+//! metalness, normals) stay linear numbers.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{Vec2, Vec3, Vec4};
+
+use crate::spectrum::cie::srgb_decode;
+use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// What to do with texture coordinates outside [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Wrap {
+    Repeat,
+    Clamp,
+    Mirror,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Filter {
+    Bilinear,
+    Nearest,
+}
+
+/// How the texel values are to be read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    /// sRGB-encoded colour, used as a reflectance (upsampled per texel).
+    SrgbColour,
+    /// Linear numbers (metalness, roughness, normal vectors).
+    Linear,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Texels {
+    /// Per texel: sigmoid coefficients c0, c1, c2 and the scale.
+    Spectral(Vec<[f32; 4]>),
+    /// Per texel: RGBA as linear numbers.
+    Linear(Vec<Vec4>),
+}
+
+/// A decoded image with its sampling state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    width: u32,
+    height: u32,
+    texels: Texels,
+    pub wrap: [Wrap; 2],
+    pub filter: Filter,
+    /// Mean linear RGB over the image (for light power estimates).
+    mean_rgb: Vec3,
+}
+
+impl Texture {
+    /// Decodes an image file's bytes (PNG, JPEG, …; the format is guessed
+    /// from the content).
+    pub fn decode(bytes: &[u8], encoding: Encoding) -> Result<Texture, String> {
+        let image = image::load_from_memory(bytes).map_err(|e| format!("cannot decode: {e}"))?;
+        let (width, height) = (image.width(), image.height());
+        if width == 0 || height == 0 {
+            return Err("the image is empty".into());
+        }
+        // Values scaled to [0, 1] per channel, no colour conversion yet.
+        let rgba = image.to_rgba32f();
+        Ok(Self::from_rgba(width, height, rgba.as_raw(), encoding))
+    }
+
+    /// Reads and decodes an image file.
+    pub fn open(path: &Path, encoding: Encoding) -> Result<Texture, String> {
+        let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+        Self::decode(&bytes, encoding)
+    }
+
+    /// Builds a texture from RGBA values in [0, 1], row by row from the top
+    /// (texture coordinate v = 0 is the top row, as in glTF and images).
+    pub fn from_rgba(width: u32, height: u32, rgba: &[f32], encoding: Encoding) -> Texture {
+        assert_eq!(rgba.len(), (width * height * 4) as usize);
+        let pixels = rgba.chunks_exact(4).map(Vec4::from_slice);
+        let (texels, mean_rgb) = match encoding {
+            Encoding::SrgbColour => {
+                let mut sum = Vec3::ZERO;
+                let coeffs = pixels
+                    .map(|p| {
+                        let rgb = Vec3::new(srgb_decode(p.x), srgb_decode(p.y), srgb_decode(p.z));
+                        sum += rgb;
+                        let (s, scale) = rgb2spec::albedo(rgb);
+                        [s.c[0], s.c[1], s.c[2], scale]
+                    })
+                    .collect();
+                (Texels::Spectral(coeffs), sum)
+            }
+            Encoding::Linear => {
+                let values: Vec<Vec4> = pixels.collect();
+                let sum = values.iter().map(|v| v.truncate()).sum();
+                (Texels::Linear(values), sum)
+            }
+        };
+        Texture {
+            width,
+            height,
+            texels,
+            wrap: [Wrap::Repeat; 2],
+            filter: Filter::Bilinear,
+            mean_rgb: mean_rgb / (width * height) as f32,
+        }
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    pub fn mean_rgb(&self) -> Vec3 {
+        self.mean_rgb
+    }
+
+    /// The texels around `uv` and their bilinear weights.
+    fn footprint(&self, uv: Vec2) -> [(usize, f32); 4] {
+        let (w, h) = (self.width as i64, self.height as i64);
+        // Texel centres sit at half-integers.
+        let x = uv.x * w as f32 - 0.5;
+        let y = uv.y * h as f32 - 0.5;
+        if self.filter == Filter::Nearest {
+            let i = wrap(x.round() as i64, w, self.wrap[0]);
+            let j = wrap(y.round() as i64, h, self.wrap[1]);
+            return [((j * w + i) as usize, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (i0, j0) = (x0 as i64, y0 as i64);
+        let (i1, j1) = (wrap(i0 + 1, w, self.wrap[0]), wrap(j0 + 1, h, self.wrap[1]));
+        let (i0, j0) = (wrap(i0, w, self.wrap[0]), wrap(j0, h, self.wrap[1]));
+        let at = |i: i64, j: i64| (j * w + i) as usize;
+        [
+            (at(i0, j0), (1.0 - fx) * (1.0 - fy)),
+            (at(i1, j0), fx * (1.0 - fy)),
+            (at(i0, j1), (1.0 - fx) * fy),
+            (at(i1, j1), fx * fy),
+        ]
+    }
+
+    /// The reflectance at `uv` for the path's wavelengths (colour textures),
+    /// or the red channel as a constant spectrum (data textures).
+    pub fn spectrum(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
+        let texels = match &self.texels {
+            Texels::Spectral(t) => t,
+            Texels::Linear(_) => return SampledSpectrum::splat(self.linear(uv).x),
+        };
+        let t = Vec4::from_array(wl.lambda.to_array().map(normalised_wavelength));
+        let mut s = SampledSpectrum::ZERO;
+        for (index, weight) in self.footprint(uv) {
+            if weight == 0.0 {
+                continue;
+            }
+            let [c0, c1, c2, scale] = texels[index];
+            let x = (Vec4::splat(c0) * t + Vec4::splat(c1)) * t + Vec4::splat(c2);
+            s += Vec4::from_array(x.to_array().map(sigmoid)) * (weight * scale);
+        }
+        s
+    }
+
+    /// The filtered RGBA value at `uv` (data textures), or the texel colour
+    /// as linear RGB with alpha 1 would be meaningless for colour textures:
+    /// those return their mean spectrum value in every channel.
+    pub fn linear(&self, uv: Vec2) -> Vec4 {
+        match &self.texels {
+            Texels::Linear(t) => self
+                .footprint(uv)
+                .iter()
+                .map(|&(i, w)| t[i] * w)
+                .fold(Vec4::ZERO, |a, b| a + b),
+            Texels::Spectral(_) => Vec4::splat(self.mean_rgb.element_sum() / 3.0),
+        }
+    }
+}
+
+/// Texel index `i` wrapped into [0, n).
+fn wrap(i: i64, n: i64, mode: Wrap) -> i64 {
+    match mode {
+        Wrap::Repeat => i.rem_euclid(n),
+        Wrap::Clamp => i.clamp(0, n - 1),
+        Wrap::Mirror => {
+            let period = i.rem_euclid(2 * n);
+            if period < n {
+                period
+            } else {
+                2 * n - 1 - period
+            }
+        }
+    }
+}
+
+/// A texture as a material uses it: which texture, and the affine map from
+/// the mesh's texture coordinates to the texture's (KHR_texture_transform).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureRef {
+    pub texture: Arc<Texture>,
+    /// uv' = [m0 m1 m2; m3 m4 m5] · (u, v, 1).
+    pub transform: Option<[f32; 6]>,
+}
+
+impl TextureRef {
+    pub fn new(texture: Arc<Texture>) -> Self {
+        Self {
+            texture,
+            transform: None,
+        }
+    }
+
+    pub fn uv(&self, uv: Vec2) -> Vec2 {
+        match self.transform {
+            None => uv,
+            Some(m) => Vec2::new(
+                m[0] * uv.x + m[1] * uv.y + m[2],
+                m[3] * uv.x + m[4] * uv.y + m[5],
+            ),
+        }
+    }
+
+    pub fn spectrum(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
+        self.texture.spectrum(self.uv(uv), wl)
+    }
+
+    pub fn linear(&self, uv: Vec2) -> Vec4 {
+        self.texture.linear(self.uv(uv))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wl() -> SampledWavelengths {
+        SampledWavelengths::sample_visible(0.3)
+    }
+
+    #[test]
+    fn wrap_modes() {
+        assert_eq!(wrap(-1, 4, Wrap::Repeat), 3);
+        assert_eq!(wrap(5, 4, Wrap::Repeat), 1);
+        assert_eq!(wrap(-1, 4, Wrap::Clamp), 0);
+        assert_eq!(wrap(9, 4, Wrap::Clamp), 3);
+        assert_eq!(wrap(4, 4, Wrap::Mirror), 3);
+        assert_eq!(wrap(-1, 4, Wrap::Mirror), 0);
+        assert_eq!(wrap(8, 4, Wrap::Mirror), 0);
+    }
+
+    #[test]
+    fn bilinear_blends_neighbouring_texels() {
+        // Two texels side by side: 0 and 1.
+        let rgba = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        let mut t = Texture::from_rgba(2, 1, &rgba, Encoding::Linear);
+        t.wrap = [Wrap::Clamp; 2];
+        assert_eq!(t.linear(Vec2::new(0.25, 0.5)).x, 0.0);
+        assert_eq!(t.linear(Vec2::new(0.75, 0.5)).x, 1.0);
+        assert!((t.linear(Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
+        assert!((t.linear(Vec2::new(0.375, 0.5)).x - 0.25).abs() < 1e-6);
+        t.filter = Filter::Nearest;
+        assert_eq!(t.linear(Vec2::new(0.45, 0.5)).x, 0.0);
+        assert_eq!(t.linear(Vec2::new(0.55, 0.5)).x, 1.0);
+    }
+
+    #[test]
+    fn colour_texels_are_srgb_decoded_reflectances() {
+        // sRGB 0.5 grey is linear 0.214: the spectrum must be flat at that value.
+        let t = Texture::from_rgba(1, 1, &[0.5, 0.5, 0.5, 1.0], Encoding::SrgbColour);
+        let s = t.spectrum(Vec2::new(0.3, 0.9), &wl());
+        for v in s.to_array() {
+            assert!((v - srgb_decode(0.5)).abs() < 0.01, "{v}");
+        }
+        // A red texel reflects long wavelengths more than short ones.
+        let red = Texture::from_rgba(1, 1, &[1.0, 0.0, 0.0, 1.0], Encoding::SrgbColour);
+        let mut w = wl();
+        w.lambda = Vec4::new(450.0, 500.0, 620.0, 680.0);
+        let s = red.spectrum(Vec2::ZERO, &w);
+        assert!(s.x < 0.1 && s.w > 0.8, "{s:?}");
+    }
+
+    #[test]
+    fn texture_transform_maps_coordinates() {
+        let t = Arc::new(Texture::from_rgba(1, 1, &[1.0; 4], Encoding::Linear));
+        let r = TextureRef {
+            texture: t,
+            transform: Some([2.0, 0.0, 0.5, 0.0, 3.0, 0.25]),
+        };
+        assert_eq!(r.uv(Vec2::new(1.0, 1.0)), Vec2::new(2.5, 3.25));
+    }
+}
