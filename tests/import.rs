@@ -586,6 +586,8 @@ usemtl mirror
 f 2 3 6
 usemtl nosuch
 f 3 4 7
+usemtl veil
+f 4 1 8
 ";
 
 const MTL: &str = "\
@@ -596,7 +598,7 @@ newmtl glow
 Kd 0 0 0
 Ke 2 2 2
 newmtl glass
-illum 7
+Kd 0.5 0.5 0.5
 Ni 1.33
 Ns 1000
 d 0.5
@@ -604,6 +606,9 @@ newmtl mirror
 illum 3
 Ks 0.9 0.9 0.9
 Ns 100000
+newmtl veil
+Kd 0.5 0.5 0.5
+d 0.3
 ";
 
 #[test]
@@ -617,8 +622,8 @@ fn obj_with_mtl_polygons_groups_and_textures() {
         &format!("{CAMERA}{}", shape("obj", "scene.obj", "")),
     )
     .unwrap();
-    // Quad (2) + pentagon (3) + three triangles.
-    assert_eq!(s.triangle_count(), 8);
+    // Quad (2) + pentagon (3) + four triangles.
+    assert_eq!(s.triangle_count(), 9);
     // The floor's texture, through negative indices and OBJ's upward v:
     // vt v = 0 (the image's bottom row: blue, white) lies at z = -1.
     // Rays start under the lamp and above the slanted triangles.
@@ -631,7 +636,7 @@ fn obj_with_mtl_polygons_groups_and_textures() {
     // The pentagon emits Ke.
     let h = hit(&s, Vec3::new(0.0, 2.0, 0.0), -Vec3::Y);
     assert!(h.light.is_some(), "Ke makes a light");
-    // illum 7 → dielectric with Ni; illum 3 → metal.
+    // d < 1 with Ni → dielectric with Ni; illum 3 → metal.
     let kinds: Vec<&Material> = s.materials.iter().collect();
     assert!(kinds.iter().any(|m| matches!(m, Material::Dielectric { ior: Ior::Constant(n), .. } if (*n - 1.33).abs() < 1e-6)));
     assert!(kinds
@@ -656,7 +661,7 @@ fn obj_missing_or_broken_mtl_is_a_warning() {
         &format!("{CAMERA}{}", shape("obj", "scene.obj", "")),
     )
     .unwrap();
-    assert_eq!(s.triangle_count(), 8);
+    assert_eq!(s.triangle_count(), 9);
     assert!(
         s.warnings.iter().any(|w| w.contains("scene.mtl")),
         "{:?}",

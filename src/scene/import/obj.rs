@@ -5,8 +5,9 @@
 //!
 //! MTL → prism:
 //! - `Ke` (and `map_Ke`) → emission, RGB relative to D65 as in scene files;
-//! - illum 4, 6, 7 or 9 (glass models) → dielectric with index `Ni`
-//!   (default 1.5), roughness from `Ns`;
+//! - illum 4, 6, 7 or 9 (glass models), or dissolve `d` < 1 (`Tr` > 0)
+//!   together with an index `Ni` > 1 → dielectric with index `Ni` (default
+//!   1.5), roughness from `Ns`;
 //! - illum 3 (mirror/ray-traced reflection) → metal with colour `Ks`;
 //! - `Ks` > 0 otherwise → glTF-style plastic: diffuse `Kd` × `map_Kd` under
 //!   a GGX coat of index `Ni` (default 1.5), roughness from `Ns`;
@@ -14,8 +15,9 @@
 //!
 //! `Ns` (Phong exponent) becomes α = √(2 / (Ns + 2)) (Walter et al. 2007's
 //! Phong–Beckmann match). Colours (Kd, Ks, Ke) are linear; textures sRGB.
-//! Ignored, and listed once per file: `d`/`Tr` (dissolve), `Tf`, `map_Ks`,
-//! `map_Ns`, `map_d`, bump/normal maps, ambient terms.
+//! Ignored, and listed once per file: `d`/`Tr` without an index (cut-out
+//! transparency), `Tf`, `map_Ks`, `map_Ns`, `map_d`, bump/normal maps,
+//! ambient terms.
 
 use std::fs::File;
 use std::io::BufReader;
@@ -199,9 +201,15 @@ fn material(
         .illumination_model
         .unwrap_or(if ks.max_element() > 0.0 { 2 } else { 1 });
 
+    let tr = m
+        .unknown_param
+        .get("Tr")
+        .and_then(|t| t.trim().parse::<f32>().ok());
+    let see_through = m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0);
+    let glass = matches!(illum, 4 | 6 | 7 | 9) || (see_through && ni.is_some_and(|n| n > 1.0));
     let mut note = |what: &str| ignored.push(format!("{what} (material `{}`)", m.name));
-    if m.dissolve.is_some_and(|d| d < 1.0) || m.unknown_param.contains_key("Tr") {
-        note("dissolve d/Tr");
+    if see_through && !glass {
+        note("dissolve d/Tr without an index Ni");
     }
     if m.unknown_param.contains_key("Tf") {
         note("transmission filter Tf");
@@ -228,7 +236,7 @@ fn material(
         ),
     };
     let material = match illum {
-        4 | 6 | 7 | 9 => Material::Dielectric {
+        _ if glass => Material::Dielectric {
             ior: Ior::Constant(ni.unwrap_or(1.5)),
             alpha: crate::material::microfacet::alpha_from_roughness(roughness),
             priority: 0,
