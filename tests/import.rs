@@ -724,6 +724,15 @@ fn toml_diffuse_texture() {
     let h = hit(&s, Vec3::new(-0.5, 0.5, 5.0), -Vec3::Z);
     let r = reflectance_at(&s, &h);
     assert!(r.w > 0.4 && r.w < 0.51 && r.x < 0.05, "{r}");
+    // JPEG too: a uniform sRGB 200 grey (linear 0.578), lossy but flat.
+    let grey = image::RgbImage::from_pixel(8, 8, image::Rgb([200, 200, 200]));
+    grey.save(dir.path().join("grey.jpg")).unwrap();
+    let s = scene_in(dir.path(), &text.replace("checker.png", "grey.jpg")).unwrap();
+    let h = hit(&s, Vec3::new(0.1, 0.2, 5.0), -Vec3::Z);
+    let r = reflectance_at(&s, &h);
+    for c in r.to_array() {
+        assert!((c - 0.5 * 0.578).abs() < 0.01, "{r}");
+    }
     let e = scene_error(dir.path(), &text.replace("checker.png", "nothere.png"));
     assert!(
         e.contains("nothere.png") && e.contains("materials.tex.texture"),
