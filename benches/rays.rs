@@ -50,7 +50,7 @@ fn random_rays(scene: &Scene, n: u32) -> Vec<Ray> {
 }
 
 /// A bumpy height field of 2·(n−1)² triangles over [−1, 1]².
-fn terrain(n: u32) -> Scene {
+fn terrain_mesh(n: u32) -> Mesh {
     let mut mesh = Mesh::default();
     for j in 0..n {
         for i in 0..n {
@@ -70,6 +70,10 @@ fn terrain(n: u32) -> Scene {
             mesh.indices.push([a, a + n + 1, a + 1]);
         }
     }
+    mesh
+}
+
+fn terrain(mesh: Mesh) -> Scene {
     let (w, h) = (512, 512);
     let settings = RenderSettings {
         width: w,
@@ -102,8 +106,9 @@ fn terrain(n: u32) -> Scene {
 }
 
 fn bench_terrain(c: &mut Criterion) {
+    let mesh = terrain_mesh(708);
     let start = std::time::Instant::now();
-    let scene = terrain(708);
+    let scene = terrain(mesh.clone());
     eprintln!(
         "terrain: {} triangles, BVH built in {:.2} s, {} nodes, {:.1} bytes per triangle",
         scene.triangle_count(),
@@ -133,6 +138,9 @@ fn bench_terrain(c: &mut Criterion) {
             Ray::new(o, d)
         })
         .collect();
+    if let Ok(dir) = std::env::var("PRISM_BENCH_DUMP") {
+        dump(Path::new(&dir), &mesh, &coherent, &incoherent);
+    }
     for (name, rays) in [
         ("coherent camera rays", coherent),
         ("incoherent rays", incoherent),
@@ -142,6 +150,33 @@ fn bench_terrain(c: &mut Criterion) {
         });
     }
     group.finish();
+}
+
+/// Writes the terrain and both ray sets as little-endian binaries, so that
+/// `tools/embree_bench.py` traces exactly the same rays with Embree.
+fn dump(dir: &Path, mesh: &Mesh, coherent: &[Ray], incoherent: &[Ray]) {
+    std::fs::create_dir_all(dir).unwrap();
+    let floats = |v: &mut Vec<u8>, f: &[f32]| f.iter().for_each(|x| v.extend(x.to_le_bytes()));
+    let mut vertices = Vec::new();
+    for p in &mesh.positions {
+        floats(&mut vertices, &p.to_array());
+    }
+    std::fs::write(dir.join("terrain_vertices.f32"), vertices).unwrap();
+    let indices: Vec<u8> = mesh
+        .indices
+        .iter()
+        .flat_map(|t| t.iter().flat_map(|i| i.to_le_bytes()))
+        .collect();
+    std::fs::write(dir.join("terrain_indices.u32"), indices).unwrap();
+    for (name, rays) in [("coherent", coherent), ("incoherent", incoherent)] {
+        let mut v = Vec::new();
+        for r in rays {
+            floats(&mut v, &r.origin.to_array());
+            floats(&mut v, &r.dir.to_array());
+        }
+        std::fs::write(dir.join(format!("rays_{name}.f32")), v).unwrap();
+    }
+    eprintln!("wrote the terrain and its rays to {}", dir.display());
 }
 
 fn bench(c: &mut Criterion) {

@@ -98,6 +98,34 @@ enum Command {
         )]
         exposure: f32,
     },
+    /// Speed against error: render a ladder of sample counts, time each
+    /// (scene loading excluded) and measure its relative MSE against a
+    /// high-sample reference (rendered once, cached). Writes DIR/prism.csv
+    /// and each rung's EXR; tools/bench.py adds FLIP, Mitsuba 3 and a plot.
+    ///
+    /// Example: prism bench scenes/cornell-box.toml --threads 2
+    Bench {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Sample counts to render, comma-separated.
+        #[arg(long, value_name = "N,N,…", value_delimiter = ',', default_values_t = [1u32, 2, 4, 8, 16, 32, 64, 128])]
+        spp: Vec<u32>,
+        /// Samples per pixel of the reference render.
+        #[arg(long, value_name = "N", default_value_t = 4096)]
+        reference_spp: u32,
+        /// A reference RGB EXR to use instead of rendering one.
+        #[arg(long, value_name = "EXR")]
+        reference: Option<PathBuf>,
+        /// Image size as WIDTHxHEIGHT (overrides film.resolution).
+        #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+        resolution: Option<(u32, u32)>,
+        /// Worker threads (default: all cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+        /// Where the CSV, the rungs' images and the cached reference go.
+        #[arg(short, long, value_name = "DIR", default_value = "bench")]
+        out: PathBuf,
+    },
     /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
     Info {
         /// The file (a spectral EXR of prism's or anyone's, or a plain RGB EXR).
@@ -437,6 +465,58 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 exr.display(),
                 png.display()
             );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Bench {
+            scene: scene_path,
+            spp,
+            reference_spp,
+            reference,
+            resolution,
+            threads,
+            out,
+        } => {
+            if spp.is_empty() || spp.contains(&0) || reference_spp == 0 {
+                bail!("sample counts must be at least 1");
+            }
+            if threads == Some(0) {
+                bail!("--threads must be at least 1");
+            }
+            let load_start = std::time::Instant::now();
+            let mut scene = scene::load(&scene_path)?;
+            let load = load_start.elapsed();
+            for w in &scene.warnings {
+                eprintln!("warning: {w}");
+            }
+            if let Some((w, h)) = resolution {
+                scene::check_film_size(w, h, scene.settings.spectral_buckets)
+                    .map_err(|e| anyhow::anyhow!(e))?;
+                scene.settings.width = w;
+                scene.settings.height = h;
+                scene.camera = scene.camera.clone().with_resolution(w, h);
+            }
+            std::fs::create_dir_all(&out)
+                .with_context(|| format!("cannot create {}", out.display()))?;
+            let bytes = std::fs::read(&scene_path)?;
+            let opts = prism::bench::BenchOptions {
+                ladder: spp,
+                reference_spp,
+                reference,
+                threads,
+                out_dir: out.clone(),
+                scene_hash: prism::merge::scene_hash(&bytes),
+            };
+            eprintln!(
+                "loaded {} in {:.3} s ({} triangles)",
+                scene_path.display(),
+                load.as_secs_f64(),
+                scene.triangle_count()
+            );
+            let (_, reference) = prism::bench::reference(&scene, &opts)?;
+            let rungs = prism::bench::run_ladder(&scene, &reference, &opts)?;
+            let csv = out.join("prism.csv");
+            prism::bench::write_csv(&csv, &scene_path.display().to_string(), load, &rungs)?;
+            eprintln!("wrote {}", csv.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Info { file } => {

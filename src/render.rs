@@ -134,8 +134,8 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                     for x in x0..x0 + w {
                         for index in range.clone() {
                             let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
-                            let mut wl = SampledWavelengths::sample_visible(sampler.next_f32());
-                            let (dx, dy) = sampler.next_2d();
+                            let [dx, dy, u_lambda, _] = sampler.next_4d();
+                            let mut wl = SampledWavelengths::sample_visible(u_lambda);
                             let ray = scene.camera.generate_ray(x as f32 + dx, y as f32 + dy);
                             let l = radiance(scene, ray, &mut wl, &mut sampler, &mut counters);
                             if l.is_finite() {

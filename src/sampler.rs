@@ -1,12 +1,33 @@
 //! Random numbers for Monte Carlo integration. Every camera sample owns a
 //! stream determined by (seed, pixel, sample index) alone, so a render is
 //! reproducible with any number of threads and any split of sample ranges.
+//!
+//! The path's decisions take low-discrepancy 4D points ([`Sampler::next_4d`]):
+//! Owen-scrambled Sobol (Burley 2020, the `sobol_burley` crate), shuffled
+//! per pixel and padded — every successive 4D set of a path uses Sobol's
+//! first four dimensions (the best-stratified ones) with its own scramble
+//! seed, so sets are independent of each other. The first `SOBOL_SETS`
+//! sets of a path (camera, then light and BSDF sets of the first three
+//! bounces) are Sobol; deeper ones, beyond 2¹⁶ samples per pixel, and
+//! `next_f32`/`next_2d` come from PCG32.
 
-/// A PCG32 generator (O'Neill 2014, XSH-RR output).
+/// Largest sample index the Sobol points cover (a limit of the crate).
+const SOBOL_SAMPLES: u64 = 1 << 16;
+/// 4D sets per path taken from Sobol; later ones (deep bounces, where
+/// stratification buys little) come from PCG32, which is cheaper.
+const SOBOL_SETS: u32 = 7;
+
+/// PCG32 (O'Neill 2014, XSH-RR output) plus the sample's Sobol state.
 #[derive(Clone, Debug)]
 pub struct Sampler {
     state: u64,
     inc: u64,
+    /// Sobol sample index, or `u32::MAX` for independent numbers only.
+    sobol_index: u32,
+    /// Per (seed, pixel) scramble seed.
+    sobol_seed: u64,
+    /// 4D sets taken so far.
+    set: u32,
 }
 
 const MULTIPLIER: u64 = 6_364_136_223_846_793_005;
@@ -24,13 +45,22 @@ impl Sampler {
         let pixel = ((y as u64) << 32) | x as u64;
         let state = mix(seed ^ mix(pixel ^ mix(sample_index)));
         let stream = mix(state ^ 0x9e37_79b9_7f4a_7c15);
-        Self::new(state, stream)
+        let mut s = Self::new(state, stream);
+        if sample_index < SOBOL_SAMPLES {
+            s.sobol_index = sample_index as u32;
+            s.sobol_seed = mix(seed ^ mix(pixel ^ 0x50b0_1000));
+        }
+        s
     }
 
+    /// A plain PCG32 stream (no Sobol points).
     pub fn new(state: u64, stream: u64) -> Self {
         let mut s = Self {
             state: 0,
             inc: (stream << 1) | 1,
+            sobol_index: u32::MAX,
+            sobol_seed: 0,
+            set: 0,
         };
         s.next_u32();
         s.state = s.state.wrapping_add(state);
@@ -54,6 +84,35 @@ impl Sampler {
     pub fn next_2d(&mut self) -> (f32, f32) {
         (self.next_f32(), self.next_f32())
     }
+
+    /// Leaves out the next 4D point (so that later points keep their place
+    /// in the sequence when a path does not need this one).
+    pub fn skip_4d(&mut self) {
+        if self.sobol_index == u32::MAX || self.set >= SOBOL_SETS {
+            for _ in 0..4 {
+                self.next_u32();
+            }
+        } else {
+            self.set += 1;
+        }
+    }
+
+    /// The next 4D point of the sample's low-discrepancy sequence, each
+    /// coordinate in [0, 1). Put the two numbers that sample a 2D domain
+    /// first: Sobol's first two dimensions are the best stratified pair.
+    pub fn next_4d(&mut self) -> [f32; 4] {
+        if self.sobol_index == u32::MAX || self.set >= SOBOL_SETS {
+            return [
+                self.next_f32(),
+                self.next_f32(),
+                self.next_f32(),
+                self.next_f32(),
+            ];
+        }
+        let seed = mix(self.sobol_seed ^ self.set as u64) as u32;
+        self.set += 1;
+        sobol_burley::sample_4d(self.sobol_index, 0, seed)
+    }
 }
 
 #[cfg(test)]
@@ -70,6 +129,34 @@ mod tests {
         let vc: Vec<u32> = (0..8).map(|_| c.next_u32()).collect();
         assert_eq!(va, vb);
         assert_ne!(va, vc);
+    }
+
+    #[test]
+    fn sobol_points_stratify_each_pixel_and_differ_between_pixels() {
+        // 64 samples of one pixel: each 4D set's first two dimensions put
+        // exactly one point in each cell of an 8 × 8 grid ((0, 2)-sequence).
+        for set in 0..3 {
+            let mut cells = [0u32; 64];
+            for i in 0..64 {
+                let mut s = Sampler::for_sample(3, 7, 9, i);
+                let mut p = [0.0; 4];
+                for _ in 0..=set {
+                    p = s.next_4d();
+                }
+                assert!(p.iter().all(|v| (0.0..1.0).contains(v)));
+                cells[(p[0] * 8.0) as usize * 8 + (p[1] * 8.0) as usize] += 1;
+            }
+            assert!(cells.iter().all(|&c| c == 1), "set {set}: {cells:?}");
+        }
+        // Another pixel (or seed) gets an independent scramble.
+        let a = Sampler::for_sample(3, 7, 9, 0).next_4d();
+        let b = Sampler::for_sample(3, 8, 9, 0).next_4d();
+        let c = Sampler::for_sample(4, 7, 9, 0).next_4d();
+        assert_ne!(a, b);
+        assert_ne!(a, c);
+        // Past 2¹⁶ samples: independent numbers, still in [0, 1).
+        let d = Sampler::for_sample(3, 7, 9, 1 << 16).next_4d();
+        assert!(d.iter().all(|v| (0.0..1.0).contains(v)));
     }
 
     #[test]

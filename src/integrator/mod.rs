@@ -150,10 +150,15 @@ pub fn radiance(
 
         if strategy != Strategy::Bsdf && !bsdf.is_specular() {
             l += beta * sample_direct(scene, &hit, &bsdf, wl, sampler, counters);
+        } else {
+            // Keep the dimensions of later bounces aligned across samples.
+            sampler.skip_4d();
         }
 
-        let uc = sampler.next_f32();
-        let Some(bs) = bsdf.sample(uc, sampler.next_2d()) else {
+        // One 4D point per bounce: the BSDF's direction (2D), its lobe
+        // choice, and Russian roulette.
+        let [u0, u1, uc, u_rr] = sampler.next_4d();
+        let Some(bs) = bsdf.sample(uc, (u0, u1)) else {
             break;
         };
         beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
@@ -177,7 +182,7 @@ pub fn radiance(
 
         // Russian roulette: end dim paths with probability 1 − max(β), and
         // reweight the survivors so the estimate stays unbiased.
-        let u = sampler.next_f32();
+        let u = u_rr;
         let max_beta = beta.max_element();
         let rr_beta = max_beta * eta_scale;
         if depth >= settings.rr_depth && rr_beta < 1.0 {
@@ -204,10 +209,10 @@ fn sample_direct(
     sampler: &mut Sampler,
     counters: &mut PathCounters,
 ) -> SampledSpectrum {
-    // Draw all three numbers whatever happens, so each path uses a fixed
-    // number of samples per bounce.
-    let u_light = sampler.next_f32();
-    let u_point = sampler.next_2d();
+    // Draw the numbers whatever happens, so each path uses a fixed number
+    // of dimensions per bounce: the point on the light (2D), which light.
+    let [p0, p1, u_light, _] = sampler.next_4d();
+    let u_point = (p0, p1);
     let Some((light, pmf)) = scene.lights.choose(u_light) else {
         return SampledSpectrum::ZERO;
     };

@@ -10,6 +10,14 @@ use super::{SampledSpectrum, SampledWavelengths};
 pub struct TabulatedSpectrum {
     lambdas: Vec<f32>,
     values: Vec<f32>,
+    /// For each whole nanometre from LAMBDA_MIN: the segment that starts at
+    /// or before it, so a lookup starts there instead of bisecting.
+    segment_at_nm: Vec<u32>,
+    /// When every knot lies on a whole nanometre (measured data usually
+    /// does): the values at each nanometre from the first knot to the last,
+    /// so a lookup is one subtraction and two loads — and exactly the same
+    /// piecewise-linear function.
+    dense: Option<Vec<f32>>,
 }
 
 impl TabulatedSpectrum {
@@ -18,15 +26,63 @@ impl TabulatedSpectrum {
     pub fn new(lambdas: Vec<f32>, values: Vec<f32>) -> Self {
         assert_eq!(lambdas.len(), values.len());
         assert!(lambdas.len() >= 2 && lambdas.windows(2).all(|w| w[0] < w[1]));
-        Self { lambdas, values }
+        let segment_at_nm = (0..=(super::LAMBDA_MAX - super::LAMBDA_MIN) as u32)
+            .map(|nm| {
+                let lambda = super::LAMBDA_MIN + nm as f32;
+                (lambdas
+                    .partition_point(|&x| x <= lambda)
+                    .clamp(1, lambdas.len() - 1)
+                    - 1) as u32
+            })
+            .collect();
+        let integral = lambdas.iter().all(|l| l.fract() == 0.0)
+            && lambdas[lambdas.len() - 1] - lambdas[0] <= 100_000.0;
+        let mut table = Self {
+            lambdas,
+            values,
+            segment_at_nm,
+            dense: None,
+        };
+        if integral {
+            let (first, last) = (table.lambdas[0], table.lambdas[table.lambdas.len() - 1]);
+            let dense = (0..=(last - first) as u32)
+                .map(|nm| table.eval_sparse(first + nm as f32))
+                .collect();
+            table.dense = Some(dense);
+        }
+        table
     }
 
     pub fn eval(&self, lambda: f32) -> f32 {
+        let Some(dense) = &self.dense else {
+            return self.eval_sparse(lambda);
+        };
+        let x = lambda - self.lambdas[0];
+        if !(x >= 0.0 && x <= (dense.len() - 1) as f32) {
+            return 0.0;
+        }
+        let i = (x as usize).min(dense.len().saturating_sub(2));
+        let t = x - i as f32;
+        dense[i] + t * (dense[i + 1] - dense[i])
+    }
+
+    fn eval_sparse(&self, lambda: f32) -> f32 {
         let l = &self.lambdas;
         if !(lambda >= l[0] && lambda <= l[l.len() - 1]) {
             return 0.0;
         }
-        let i = l.partition_point(|&x| x <= lambda).clamp(1, l.len() - 1) - 1;
+        let nm = lambda - super::LAMBDA_MIN;
+        let mut i = if nm >= 0.0 && (nm as usize) < self.segment_at_nm.len() {
+            // Exact: walk on from the segment of the whole nanometre below.
+            let mut i = self.segment_at_nm[nm as usize] as usize;
+            while i + 2 < l.len() && l[i + 1] <= lambda {
+                i += 1;
+            }
+            i
+        } else {
+            l.partition_point(|&x| x <= lambda).clamp(1, l.len() - 1) - 1
+        };
+        i = i.min(l.len() - 2);
         let t = (lambda - l[i]) / (l[i + 1] - l[i]);
         self.values[i] + t * (self.values[i + 1] - self.values[i])
     }
@@ -166,6 +222,55 @@ pub fn planck(lambda_nm: f32, kelvin: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn dense_tables_are_the_same_function() {
+        // Knots on whole nanometres, 4 nm apart, as measured data comes.
+        let lambdas: Vec<f32> = (0..60).map(|i| 400.0 + 4.0 * i as f32).collect();
+        let values: Vec<f32> = (0..60).map(|i| ((i * 7919) % 101) as f32 / 100.0).collect();
+        let t = TabulatedSpectrum::new(lambdas.clone(), values.clone());
+        assert!(t.dense.is_some());
+        for k in 0..30_000 {
+            let lambda = 390.0 + k as f32 * 0.0087;
+            let i = lambdas
+                .partition_point(|&x| x <= lambda)
+                .clamp(1, lambdas.len() - 1)
+                - 1;
+            let expected = if lambda < 400.0 || lambda > lambdas[59] {
+                0.0
+            } else {
+                let u = (lambda - lambdas[i]) / (lambdas[i + 1] - lambdas[i]);
+                values[i] + u * (values[i + 1] - values[i])
+            };
+            assert!((t.eval(lambda) - expected).abs() < 1e-6, "at {lambda}");
+        }
+    }
+
+    #[test]
+    fn table_lookup_equals_bisection() {
+        // Irregular spacing: several points within one nanometre, gaps of
+        // many, a range starting below and ending above the rendered one.
+        let lambdas = vec![
+            300.0, 361.2, 361.5, 361.9, 400.0, 400.25, 455.0, 455.5, 700.0, 829.9, 900.0,
+        ];
+        let values: Vec<f32> = (0..lambdas.len()).map(|i| (i * i) as f32 * 0.3).collect();
+        let t = TabulatedSpectrum::new(lambdas.clone(), values.clone());
+        let bisect = |lambda: f32| {
+            if !(lambda >= lambdas[0] && lambda <= lambdas[lambdas.len() - 1]) {
+                return 0.0;
+            }
+            let i = lambdas
+                .partition_point(|&x| x <= lambda)
+                .clamp(1, lambdas.len() - 1)
+                - 1;
+            let u = (lambda - lambdas[i]) / (lambdas[i + 1] - lambdas[i]);
+            values[i] + u * (values[i + 1] - values[i])
+        };
+        for k in 0..20_000 {
+            let lambda = 280.0 + k as f32 * 0.0317;
+            assert_eq!(t.eval(lambda), bisect(lambda), "at {lambda}");
+        }
+    }
 
     #[test]
     fn table_interpolates_and_is_zero_outside() {

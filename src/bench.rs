@@ -1,0 +1,225 @@
+//! Speed against error: renders a scene at a ladder of sample counts, times
+//! each render (wall and CPU, scene loading excluded) and measures its
+//! error against a high-sample reference that is rendered once and cached.
+//! `prism bench` writes the numbers as CSV; `tools/bench.py` adds FLIP,
+//! Mitsuba 3 and the plot.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+
+use crate::film::output::write_rgb_exr;
+use crate::render::{render, RenderOptions};
+use crate::scene::Scene;
+
+/// ε of the relative MSE, (x − r)² / (r² + ε): keeps black pixels from
+/// dominating (Rousselle et al. 2011 use 0.01 as well).
+pub const REL_MSE_EPSILON: f64 = 1e-2;
+
+/// Relative mean squared error of `image` against `reference` (linear RGB),
+/// averaged over pixels and channels.
+pub fn rel_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
+    assert_eq!(image.len(), reference.len());
+    let sum: f64 = image
+        .iter()
+        .zip(reference)
+        .map(|(x, r)| {
+            (0..3)
+                .map(|c| {
+                    let (x, r) = (x[c] as f64, r[c] as f64);
+                    (x - r) * (x - r) / (r * r + REL_MSE_EPSILON)
+                })
+                .sum::<f64>()
+        })
+        .sum();
+    sum / (3 * image.len()) as f64
+}
+
+/// CPU time used by this process so far (user + system, all threads).
+pub fn process_cpu_time() -> Duration {
+    // SAFETY: getrusage only writes the struct it is given.
+    let usage = unsafe {
+        let mut u = std::mem::zeroed::<libc::rusage>();
+        libc::getrusage(libc::RUSAGE_SELF, &mut u);
+        u
+    };
+    let t = |tv: libc::timeval| Duration::new(tv.tv_sec as u64, tv.tv_usec as u32 * 1000);
+    t(usage.ru_utime) + t(usage.ru_stime)
+}
+
+/// Reads a linear RGB OpenEXR (the first layer's R, G, B).
+pub fn read_rgb_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| {
+            (
+                resolution.width(),
+                vec![Vec3::ZERO; resolution.width() * resolution.height()],
+            )
+        },
+        |(width, pixels), position, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[position.y() * *width + position.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .with_context(|| format!("cannot read {}", path.display()))?;
+    let size = image.layer_data.size;
+    Ok((
+        size.width() as u32,
+        size.height() as u32,
+        image.layer_data.channel_data.pixels.1,
+    ))
+}
+
+/// One rung of the ladder.
+#[derive(Clone, Debug)]
+pub struct Rung {
+    pub spp: u32,
+    pub wall: Duration,
+    pub cpu: Duration,
+    pub rel_mse: f64,
+    pub image: PathBuf,
+}
+
+/// What to run.
+pub struct BenchOptions {
+    pub ladder: Vec<u32>,
+    pub reference_spp: u32,
+    /// Use this reference image instead of rendering one.
+    pub reference: Option<PathBuf>,
+    pub threads: Option<usize>,
+    pub out_dir: PathBuf,
+    /// Identifies the scene file's content, for the reference cache.
+    pub scene_hash: String,
+}
+
+/// The reference image: the given one, a cached render of this scene file
+/// at this many samples, or a new render (cached for next time).
+pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec3>)> {
+    let path = opts.reference.clone().unwrap_or_else(|| {
+        opts.out_dir.join(format!(
+            "reference-{}-{}x{}-{}spp.exr",
+            opts.scene_hash, scene.settings.width, scene.settings.height, opts.reference_spp
+        ))
+    });
+    if path.exists() {
+        let (w, h, px) = read_rgb_exr(&path)?;
+        if (w, h) != (scene.settings.width, scene.settings.height) {
+            bail!(
+                "the reference {} is {w}x{h}, the scene renders {}x{}",
+                path.display(),
+                scene.settings.width,
+                scene.settings.height
+            );
+        }
+        eprintln!("reference: {} (cached)", path.display());
+        return Ok((path, px));
+    }
+    eprintln!(
+        "reference: rendering {} spp once (cached as {})",
+        opts.reference_spp,
+        path.display()
+    );
+    let (film, _) = render(
+        scene,
+        &RenderOptions {
+            spp: Some(opts.reference_spp),
+            // A seed no rung uses: the reference's noise is independent.
+            seed: Some(0x5eed_0000_0000),
+            threads: opts.threads,
+            progress: true,
+            ..Default::default()
+        },
+    );
+    let rgb = film.linear_srgb();
+    write_rgb_exr(&rgb, film.width, film.height, &path)?;
+    Ok((path, rgb))
+}
+
+/// Renders every rung and measures it.
+pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Result<Vec<Rung>> {
+    let mut rungs = Vec::new();
+    for (i, &spp) in opts.ladder.iter().enumerate() {
+        let (cpu0, wall0) = (process_cpu_time(), Instant::now());
+        let (film, stats) = render(
+            scene,
+            &RenderOptions {
+                spp: Some(spp),
+                seed: Some(i as u64 + 1),
+                threads: opts.threads,
+                ..Default::default()
+            },
+        );
+        let (wall, cpu) = (wall0.elapsed(), process_cpu_time() - cpu0);
+        if stats.non_finite > 0 {
+            eprintln!(
+                "warning: {} non-finite samples at {spp} spp",
+                stats.non_finite
+            );
+        }
+        let rgb = film.linear_srgb();
+        let image = opts.out_dir.join(format!("prism-{spp}spp.exr"));
+        write_rgb_exr(&rgb, film.width, film.height, &image)?;
+        let e = rel_mse(&rgb, reference);
+        eprintln!(
+            "{spp:>6} spp: {:8.3} s wall, {:8.3} s CPU, relMSE {e:.3e}",
+            wall.as_secs_f64(),
+            cpu.as_secs_f64()
+        );
+        rungs.push(Rung {
+            spp,
+            wall,
+            cpu,
+            rel_mse: e,
+            image,
+        });
+    }
+    Ok(rungs)
+}
+
+/// The ladder as CSV: one row per rung.
+pub fn write_csv(path: &Path, scene: &str, load: Duration, rungs: &[Rung]) -> Result<()> {
+    let mut text = String::from("renderer,scene,spp,wall_s,cpu_s,load_s,rel_mse,image\n");
+    for r in rungs {
+        text += &format!(
+            "prism,{scene},{},{:.6},{:.6},{:.6},{:.6e},{}\n",
+            r.spp,
+            r.wall.as_secs_f64(),
+            r.cpu.as_secs_f64(),
+            load.as_secs_f64(),
+            r.rel_mse,
+            r.image.display()
+        );
+    }
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rel_mse_of_known_differences() {
+        let r = vec![Vec3::ONE; 4];
+        assert_eq!(rel_mse(&r, &r), 0.0);
+        // 10% too bright everywhere: 0.01 / (1 + ε).
+        let x: Vec<Vec3> = r.iter().map(|v| *v * 1.1).collect();
+        assert!((rel_mse(&x, &r) - 0.01 / 1.01).abs() < 1e-6);
+        // A black reference pixel counts through ε only.
+        let z = vec![Vec3::ZERO];
+        assert!((rel_mse(&[Vec3::splat(0.1)], &z) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn cpu_time_advances() {
+        let a = process_cpu_time();
+        let mut x = 0u64;
+        for i in 0..20_000_000u64 {
+            x = x.wrapping_add(i * i);
+        }
+        std::hint::black_box(x);
+        assert!(process_cpu_time() > a);
+    }
+}

@@ -1,0 +1,345 @@
+#!/usr/bin/env python3
+"""Speed against error, prism side by side with Mitsuba 3.
+
+    python3 tools/bench.py [--spp 1,2,...] [--reference-spp 4096] [--threads 2] [--out bench]
+
+1. `prism bench` renders the ladder (load excluded from the timings) and
+   the reference (prism at --reference-spp, rendered once and cached).
+2. Mitsuba 3 `scalar_spectral` renders the same Cornell Box (geometry from
+   scenes/cornell/*.obj, the measured spectra from spectra/, the same camera,
+   box filter, max depth and Russian roulette start) at the same ladder on
+   the same number of threads, timed the same way.
+3. Both renderers' rungs are scored against the same reference: relMSE
+   (as prism computes it) and HDR-FLIP (flip-evaluator).
+4. Writes OUT/convergence.csv and OUT/convergence.png (log-log error against
+   wall time) and prints the time each needs for equal relMSE.
+
+`--check` first checks that both renderers converge to the same image:
+K independent renders each, mean radiance per wall with its standard error,
+and the z-score of the difference per wall and channel.
+
+Needs the packages of tools/bench-requirements.txt (mitsuba, numpy,
+matplotlib, flip-evaluator, OpenEXR); not part of the test suite.
+"""
+
+import argparse
+import csv
+import math
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+CORNELL = ["floor", "ceiling", "back", "short", "tall", "red", "green", "light"]
+MATERIAL = {"red": "red", "green": "green"}
+
+# Image-space boxes (x0, y0, x1, y1) on the 512² Cornell Box view, inside
+# each surface and away from edges and shadows' penumbrae.
+REGIONS = {
+    "light": (225, 68, 290, 76),
+    "ceiling": (150, 10, 360, 40),
+    "left wall (red)": (20, 150, 60, 350),
+    "right wall (green)": (452, 150, 492, 350),
+    "back wall": (270, 150, 380, 260),
+    "floor": (150, 470, 360, 500),
+    "tall block front": (160, 260, 230, 380),
+    "short block front": (250, 350, 330, 420),
+}
+
+
+def read_csv_spectrum(path):
+    rows = []
+    for line in Path(path).read_text().splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        parts = line.split(",")
+        try:
+            rows.append((float(parts[0]), float(parts[1])))
+        except ValueError:
+            continue  # header
+    return rows
+
+
+def cpu_seconds():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def read_exr(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        channels = f.channels()
+        if "RGB" in channels:
+            return np.asarray(channels["RGB"].pixels, dtype=np.float32)
+        return np.stack([np.asarray(channels[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
+
+
+def rel_mse(image, reference, eps=1e-2):
+    """As prism's src/bench.rs: mean over pixels and channels of (x-r)²/(r²+ε)."""
+    image = image.astype(np.float64)
+    reference = reference.astype(np.float64)
+    return float(np.mean((image - reference) ** 2 / (reference**2 + eps)))
+
+
+def flip_error(image, reference):
+    import flip_evaluator as flip
+
+    _, mean, _ = flip.evaluate(reference.astype(np.float32), image.astype(np.float32), "HDR")
+    return float(mean)
+
+
+class Mitsuba:
+    """The Cornell Box of scenes/cornell-box.toml in Mitsuba 3."""
+
+    def __init__(self, threads, width=512, height=512, max_depth=16, rr_depth=3):
+        import drjit as dr
+        import mitsuba as mi
+
+        mi.set_variant("scalar_spectral")
+        dr.set_thread_count(threads)
+        self.mi = mi
+        spectra = {
+            name: {"type": "spectrum", "value": read_csv_spectrum(ROOT / f"spectra/cornell_{name}.csv")}
+            for name in ["white", "red", "green", "light"]
+        }
+        scene = {
+            "type": "scene",
+            # prism's max_depth counts bounces; Mitsuba's counts vertices
+            # (1 = emitters seen directly): Mitsuba's = prism's + 1, and the
+            # same for the depth where Russian roulette starts.
+            "integrator": {"type": "path", "max_depth": max_depth + 1, "rr_depth": rr_depth + 1},
+            "sensor": {
+                "type": "perspective",
+                "fov_axis": "y",
+                "fov": math.degrees(2 * math.atan(12.5 / 35)),  # 35 mm lens on 25 mm film
+                "to_world": mi.ScalarTransform4f().look_at(
+                    origin=[278, 273, -800], target=[278, 273, 0], up=[0, 1, 0]
+                ),
+                "film": {
+                    "type": "hdrfilm",
+                    "width": width,
+                    "height": height,
+                    "rfilter": {"type": "box"},
+                    "pixel_format": "rgb",
+                },
+                "sampler": {"type": "independent", "sample_count": 1},
+            },
+        }
+        for name in ["white", "red", "green"]:
+            scene[f"bsdf_{name}"] = {"type": "diffuse", "id": f"bsdf_{name}", "reflectance": spectra[name]}
+        for part in CORNELL:
+            shape = {
+                "type": "obj",
+                "filename": str(ROOT / f"scenes/cornell/{part}.obj"),
+                "face_normals": True,
+                "bsdf": {"type": "ref", "id": f"bsdf_{MATERIAL.get(part, 'white')}"},
+            }
+            if part == "light":
+                shape["emitter"] = {"type": "area", "radiance": spectra["light"]}
+            scene[part] = shape
+        t0 = time.perf_counter()
+        self.scene = mi.load_dict(scene)
+        self.load_s = time.perf_counter() - t0
+
+    def render(self, spp, seed):
+        """Renders; returns (image HxWx3, wall seconds, CPU seconds)."""
+        c0, w0 = cpu_seconds(), time.perf_counter()
+        image = np.array(self.mi.render(self.scene, spp=spp, seed=seed))
+        return image, time.perf_counter() - w0, cpu_seconds() - c0
+
+
+PRISM = None  # set by --prism
+
+
+def prism_bin():
+    if PRISM:
+        return PRISM
+    path = ROOT / "target/release/prism"
+    if not path.exists():
+        subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+    return str(path)
+
+
+def run_prism(args, out, ladder):
+    """`prism bench` for these rungs; returns its CSV rows."""
+    cmd = [
+        prism_bin(),
+        "bench",
+        str(ROOT / "scenes/cornell-box.toml"),
+        "--spp",
+        ",".join(map(str, ladder)),
+        "--reference-spp",
+        str(args.reference_spp),
+        "--threads",
+        str(args.threads),
+        "--out",
+        str(out),
+    ]
+    subprocess.run(cmd, check=True)
+    return list(csv.DictReader(open(out / "prism.csv")))
+
+
+def check_convergence(args, out):
+    """Both renderers, K independent renders each: per-region means agree?"""
+    k, spp = args.check_renders, args.check_spp
+    mit = Mitsuba(args.threads)
+    means = {"prism": [], "mitsuba": []}
+    for i in range(k):
+        image, _, _ = mit.render(spp, seed=1000 + i)
+        means["mitsuba"].append(region_means(image))
+        stem = out / f"check-prism-{i}"
+        subprocess.run(
+            [prism_bin(), "render", str(ROOT / "scenes/cornell-box.toml"), "--spp", str(spp),
+             "--seed", str(1000 + i), "--threads", str(args.threads), "--no-spectral", "-q", "-o", str(stem)],
+            check=True,
+        )
+        means["prism"].append(region_means(read_exr(stem.with_suffix(".exr"))))
+    worst = 0.0
+    lines = ["region,channel,prism,prism_se,mitsuba,mitsuba_se,ratio,z"]
+    for r in REGIONS:
+        for c, channel in enumerate("RGB"):
+            p = np.array([m[r][c] for m in means["prism"]])
+            m = np.array([m[r][c] for m in means["mitsuba"]])
+            sp, sm = p.std(ddof=1) / math.sqrt(k), m.std(ddof=1) / math.sqrt(k)
+            z = abs(p.mean() - m.mean()) / math.hypot(sp, sm)
+            worst = max(worst, z)
+            lines.append(
+                f"{r},{channel},{p.mean():.6f},{sp:.6f},{m.mean():.6f},{sm:.6f},{p.mean() / m.mean():.5f},{z:.2f}"
+            )
+    (out / "convergence-check.csv").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    print(f"largest |z| over {len(REGIONS)} regions × 3 channels: {worst:.2f}")
+    return worst
+
+
+def region_means(image):
+    return {r: image[y0:y1, x0:x1].reshape(-1, 3).mean(axis=0) for r, (x0, y0, x1, y1) in REGIONS.items()}
+
+
+def equal_error_time(rows, target):
+    """Wall time at which a ladder reaches relMSE `target` (log-log interpolation)."""
+    pts = sorted((float(r["wall_s"]), float(r["rel_mse"])) for r in rows)
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if e0 >= target >= e1:
+            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0)))
+    # Outside the ladder: extrapolate along error ∝ 1/time from the nearest end.
+    t, e = pts[-1] if target < pts[-1][1] else pts[0]
+    return t * e / target
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--spp", default="1,2,4,8,16,32,64,128,256")
+    ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--out", default=str(ROOT / "bench"))
+    ap.add_argument("--check", action="store_true", help="check both converge to the same image first")
+    ap.add_argument("--check-renders", type=int, default=6)
+    ap.add_argument("--check-spp", type=int, default=64)
+    ap.add_argument("--no-mitsuba", action="store_true")
+    ap.add_argument("--prism", help="the prism binary (default: target/release/prism, built if missing)")
+    args = ap.parse_args()
+    global PRISM
+    PRISM = args.prism
+    args.spp = [int(s) for s in args.spp.split(",")]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    if args.check:
+        check_convergence(args, out)
+
+    # The reference (prism at --reference-spp) is rendered once and cached.
+    run_prism(args, out, [1])
+    reference_path = sorted(out.glob(f"reference-*-512x512-{args.reference_spp}spp.exr"), key=os.path.getmtime)[-1]
+    reference = read_exr(reference_path)
+    mit = None if args.no_mitsuba else Mitsuba(args.threads)
+    if mit:
+        print(f"mitsuba scalar_spectral: scene loaded in {mit.load_s:.3f} s", flush=True)
+    # Rungs alternate between the renderers, so that drifts in the machine's
+    # speed hit both alike.
+    rows = []
+    for i, spp in enumerate(args.spp):
+        for r in run_prism(args, out, [spp]):
+            rows.append({**r, "flip": flip_error(read_exr(r["image"]), reference)})
+        if mit:
+            import mitsuba as mi
+
+            image, wall, cpu = mit.render(spp, seed=i + 1)
+            path = out / f"mitsuba-{spp}spp.exr"
+            mi.Bitmap(image).write(str(path))
+            e = rel_mse(image, reference)
+            rows.append(
+                {
+                    "renderer": "mitsuba3-scalar_spectral",
+                    "scene": "scenes/cornell-box.toml",
+                    "spp": spp,
+                    "wall_s": f"{wall:.6f}",
+                    "cpu_s": f"{cpu:.6f}",
+                    "load_s": f"{mit.load_s:.6f}",
+                    "rel_mse": f"{e:.6e}",
+                    "image": str(path),
+                    "flip": flip_error(image, reference),
+                }
+            )
+            print(f"mitsuba {spp:>6} spp: {wall:8.3f} s wall, {cpu:8.3f} s CPU, relMSE {e:.3e}", flush=True)
+
+    fields = ["renderer", "scene", "spp", "wall_s", "cpu_s", "load_s", "rel_mse", "flip", "image"]
+    with open(out / "convergence.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {out / 'convergence.csv'}")
+    plot(rows, out / "convergence.png", args)
+    summarise(rows)
+
+
+def plot(rows, path, args):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for name in sorted({r["renderer"] for r in rows}):
+        rs = [r for r in rows if r["renderer"] == name]
+        t = [float(r["wall_s"]) for r in rs]
+        axes[0].loglog(t, [float(r["rel_mse"]) for r in rs], "o-", label=name)
+        axes[1].loglog(t, [float(r["flip"]) for r in rs], "o-", label=name)
+        for r in rs:
+            axes[0].annotate(str(r["spp"]), (float(r["wall_s"]), float(r["rel_mse"])), fontsize=6,
+                             textcoords="offset points", xytext=(3, 3))
+    axes[0].set_ylabel("relMSE (ε = 0.01)")
+    axes[1].set_ylabel("HDR-FLIP (mean)")
+    for ax in axes:
+        ax.set_xlabel(f"wall time, s ({args.threads} threads, scene load excluded)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.suptitle(f"Cornell Box 512², error against a {args.reference_spp} spp reference")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"wrote {path}")
+
+
+def summarise(rows):
+    names = sorted({r["renderer"] for r in rows})
+    if len(names) < 2:
+        return
+    prism = [r for r in rows if r["renderer"] == "prism"]
+    other = [r for r in rows if r["renderer"] != "prism"]
+    print("time to equal relMSE (prism / mitsuba):")
+    for r in other:
+        target = float(r["rel_mse"])
+        tp = equal_error_time(prism, target)
+        print(f"  relMSE {target:.3e}: mitsuba {float(r['wall_s']):.2f} s, prism {tp:.2f} s, ratio {tp / float(r['wall_s']):.3f}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
