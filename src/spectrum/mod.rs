@@ -8,7 +8,10 @@ mod spectra;
 mod wavelengths;
 
 pub use spectra::{RgbSpectrum, Spectrum, TabulatedSpectrum};
-pub use wavelengths::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+pub use wavelengths::{
+    sample_visible_wavelength, visible_wavelength_pdf, SampledSpectrum, SampledWavelengths,
+    N_WAVELENGTHS,
+};
 
 /// Shortest wavelength a path may carry, in nanometres.
 pub const LAMBDA_MIN: f32 = 360.0;
