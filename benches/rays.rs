@@ -141,11 +141,29 @@ fn bench_terrain(c: &mut Criterion) {
     if let Ok(dir) = std::env::var("PRISM_BENCH_DUMP") {
         dump(Path::new(&dir), &mesh, &coherent, &incoherent);
     }
+    let hits = incoherent
+        .iter()
+        .filter(|r| scene.closest_triangle(r).is_some())
+        .count();
+    eprintln!(
+        "terrain: {hits} of {} incoherent rays hit",
+        incoherent.len()
+    );
+    // Closest hit (triangle, t, barycentrics) as Embree's rtcIntersect1
+    // answers it; and with prism's shading data (normals, texture
+    // coordinates, hit point error bounds) gathered as a render does.
     for (name, rays) in [
-        ("coherent camera rays", coherent),
-        ("incoherent rays", incoherent),
+        ("coherent camera rays", &coherent),
+        ("incoherent rays", &incoherent),
     ] {
         group.bench_function(name, |b| {
+            b.iter(|| {
+                rays.iter()
+                    .filter(|r| scene.closest_triangle(r).is_some())
+                    .count()
+            })
+        });
+        group.bench_function(format!("{name}, with shading data"), |b| {
             b.iter(|| rays.iter().filter(|r| scene.intersect(r).is_some()).count())
         });
     }

@@ -226,6 +226,13 @@ impl Scene {
         &self.triangles[prim as usize]
     }
 
+    /// The closest hit as a triangle index (BVH order) with distance and
+    /// barycentrics, without the shading data: the query Embree's
+    /// `rtcIntersect1` answers, for comparing traversal alone.
+    pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, triangle::TriangleHit)> {
+        self.bvh.intersect(ray, &self.triangles)
+    }
+
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
         let (prim, hit) = self.bvh.intersect(ray, &self.triangles)?;
         let tri = &self.triangles[prim as usize];
