@@ -107,6 +107,10 @@ impl TabulatedSpectrum {
 
     pub fn scaled(mut self, s: f32) -> Self {
         self.values.iter_mut().for_each(|v| *v *= s);
+        // The dense copy is the same function: it scales with the knots.
+        if let Some(dense) = &mut self.dense {
+            dense.iter_mut().for_each(|v| *v *= s);
+        }
         self
     }
 
@@ -249,6 +253,15 @@ mod tests {
         let values: Vec<f32> = (0..60).map(|i| ((i * 7919) % 101) as f32 / 100.0).collect();
         let t = TabulatedSpectrum::new(lambdas.clone(), values.clone());
         assert!(t.dense.is_some());
+        // Scaling scales every lookup path alike.
+        let doubled = t.clone().scaled(2.0);
+        for lambda in [401.3f32, 517.0, 600.9] {
+            assert_eq!(doubled.eval(lambda), 2.0 * t.eval(lambda));
+            assert_eq!(
+                doubled.sample(glam::Vec4::splat(lambda)).x,
+                2.0 * t.eval(lambda)
+            );
+        }
         for k in 0..30_000 {
             let lambda = 390.0 + k as f32 * 0.0087;
             let four = t.sample(glam::Vec4::new(lambda, lambda + 1.3, lambda - 7.1, 300.0));
