@@ -7,7 +7,6 @@
 //! not on RGB that is upsampled afterwards. Data textures (roughness,
 //! metalness, normals) stay linear numbers.
 
-use std::path::Path;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
@@ -71,12 +70,6 @@ impl Texture {
         // Values scaled to [0, 1] per channel, no colour conversion yet.
         let rgba = image.to_rgba32f();
         Ok(Self::from_rgba(width, height, rgba.as_raw(), encoding))
-    }
-
-    /// Reads and decodes an image file.
-    pub fn open(path: &Path, encoding: Encoding) -> Result<Texture, String> {
-        let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
-        Self::decode(&bytes, encoding)
     }
 
     /// Builds a texture from RGBA values in [0, 1], row by row from the top

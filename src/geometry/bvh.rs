@@ -199,22 +199,10 @@ impl Bvh {
                 mask &= mask - 1;
                 if node.count[i] > 0 {
                     let entry = (node.child[i], node.count[i], near[i]);
-                    let mut j = nl;
-                    while j > 0 && leaves[j - 1].2 > entry.2 {
-                        leaves[j] = leaves[j - 1];
-                        j -= 1;
-                    }
-                    leaves[j] = entry;
-                    nl += 1;
+                    insert_by_distance(&mut leaves, &mut nl, entry, |e| e.2);
                 } else {
                     let entry = (node.child[i], near[i]);
-                    let mut j = n;
-                    while j > 0 && nodes[j - 1].1 > entry.1 {
-                        nodes[j] = nodes[j - 1];
-                        j -= 1;
-                    }
-                    nodes[j] = entry;
-                    n += 1;
+                    insert_by_distance(&mut nodes, &mut n, entry, |e| e.1);
                 }
             }
             for &(start, count, t_enter) in &leaves[..nl] {
@@ -256,6 +244,25 @@ impl Bvh {
             }
         }
     }
+}
+
+/// Inserts `entry` into the first `*len` entries of `list`, kept sorted
+/// nearest first by `distance` (insertion sort: at most four).
+#[inline]
+fn insert_by_distance<T: Copy>(
+    list: &mut [T; 4],
+    len: &mut usize,
+    entry: T,
+    distance: impl Fn(&T) -> f32,
+) {
+    let t = distance(&entry);
+    let mut j = *len;
+    while j > 0 && distance(&list[j - 1]) > t {
+        list[j] = list[j - 1];
+        j -= 1;
+    }
+    list[j] = entry;
+    *len += 1;
 }
 
 /// Turns the binary subtree at `index` into 4-wide nodes; returns the index

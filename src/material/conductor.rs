@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::microfacet::Ggx;
+use super::microfacet::{reflect, Ggx};
 use super::{facing_frame, fresnel, BsdfSample, ShadingGeometry};
 use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
@@ -66,8 +66,7 @@ impl ConductorBsdf {
             return SampledSpectrum::ZERO;
         };
         let wm = (wo + wi).normalize();
-        let value = self.ggx.d(wm) * self.ggx.g(wo, wi) / (4.0 * wo.z * wi.z);
-        self.fresnel(wo.dot(wm).abs()) * value
+        self.fresnel(wo.dot(wm).abs()) * self.ggx.reflection(wo, wi, wm)
     }
 
     pub fn pdf(&self, wi: Vec3) -> f32 {
@@ -75,7 +74,7 @@ impl ConductorBsdf {
             return 0.0;
         };
         let wm = (wo + wi).normalize();
-        self.ggx.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs())
+        self.ggx.reflection_pdf(wo, wm)
     }
 
     pub fn sample(&self, u: (f32, f32)) -> Option<BsdfSample> {
@@ -97,7 +96,7 @@ impl ConductorBsdf {
             });
         }
         let wm = self.ggx.sample_wm(wo, u);
-        let wi_local = -wo + 2.0 * wo.dot(wm) * wm;
+        let wi_local = reflect(wo, wm);
         if wi_local.z <= 0.0 {
             return None;
         }

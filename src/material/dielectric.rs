@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::microfacet::Ggx;
+use super::microfacet::{reflect, Ggx};
 use super::{fresnel, BsdfSample, ShadingGeometry};
 use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
@@ -48,10 +48,6 @@ pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<(Vec3, f32)> {
 /// interface disperses them.
 pub fn is_dispersive(eta: SampledSpectrum) -> bool {
     eta.x != eta.y || eta.x != eta.z || eta.x != eta.w
-}
-
-fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
-    -wo + 2.0 * wo.dot(n) * n
 }
 
 impl DielectricBsdf {
@@ -129,7 +125,7 @@ impl DielectricBsdf {
         let (d, g) = (self.ggx.d(wm), self.ggx.g(wo, wi));
         if reflect {
             let f = d * g * r / (4.0 * ci * co).abs();
-            let pdf = self.ggx.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs()) * r;
+            let pdf = self.ggx.reflection_pdf(wo, wm) * r;
             (f, pdf)
         } else {
             let denom = wi.dot(wm) + wo.dot(wm) / etap;

@@ -15,6 +15,11 @@ pub fn alpha_from_roughness(roughness: f32) -> f32 {
     (roughness * roughness).clamp(0.0, 1.0)
 }
 
+/// The mirror direction of `wo` about the unit normal `n`.
+pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    -wo + 2.0 * wo.dot(n) * n
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ggx {
     pub alpha: f32,
@@ -76,6 +81,18 @@ impl Ggx {
             return 0.0;
         }
         self.g1(w) / cos * self.d(wm) * w.dot(wm).abs()
+    }
+
+    /// The reflection lobe without Fresnel, D(ωm)·G(ωo, ωi) / (4 cos θo cos θi),
+    /// for ωo and ωi above the surface with half vector ωm.
+    pub fn reflection(&self, wo: Vec3, wi: Vec3, wm: Vec3) -> f32 {
+        self.d(wm) * self.g(wo, wi) / (4.0 * wo.z * wi.z)
+    }
+
+    /// Solid-angle density of ωi = reflect(ωo, ωm) when ωm is sampled by
+    /// [`Ggx::sample_wm`] (the Jacobian of reflection is 1 / (4 |ωo·ωm|)).
+    pub fn reflection_pdf(&self, wo: Vec3, wm: Vec3) -> f32 {
+        self.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs())
     }
 
     /// Samples a microfacet normal (upper hemisphere) with density

@@ -21,7 +21,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::Vec3;
 
-use super::microfacet::Ggx;
+use super::microfacet::{reflect, Ggx};
 use super::{cosine_hemisphere, facing_frame, BsdfSample, ShadingGeometry};
 use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
@@ -111,7 +111,7 @@ impl PbrBsdf {
         };
         let wm = (wo + wi).normalize();
         let w = schlick_weight(wo.dot(wm).abs());
-        let s = self.ggx.d(wm) * self.ggx.g(wo, wi) / (4.0 * wo.z * wi.z);
+        let s = self.ggx.reflection(wo, wi, wm);
         let f_d = self.f0 + (1.0 - self.f0) * w;
         let f_c = self.base + (SampledSpectrum::ONE - self.base) * w;
         let coupling = 28.0 / (23.0 * PI)
@@ -127,7 +127,7 @@ impl PbrBsdf {
             return 0.0;
         };
         let wm = (wo + wi).normalize();
-        let spec = self.ggx.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs());
+        let spec = self.ggx.reflection_pdf(wo, wm);
         self.p_specular * spec + (1.0 - self.p_specular) * wi.z * FRAC_1_PI
     }
 
@@ -137,8 +137,7 @@ impl PbrBsdf {
             return None;
         }
         let wi_local = if uc < self.p_specular {
-            let wm = self.ggx.sample_wm(wo, u);
-            -wo + 2.0 * wo.dot(wm) * wm
+            reflect(wo, self.ggx.sample_wm(wo, u))
         } else {
             cosine_hemisphere(u)
         };

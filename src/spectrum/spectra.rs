@@ -11,7 +11,8 @@ pub struct TabulatedSpectrum {
     lambdas: Vec<f32>,
     values: Vec<f32>,
     /// For each whole nanometre from LAMBDA_MIN: the segment that starts at
-    /// or before it, so a lookup starts there instead of bisecting.
+    /// or before it, so a lookup starts there instead of bisecting (empty
+    /// for tables with the dense copy below, which bisect only to build it).
     segment_at_nm: Vec<u32>,
     /// When every knot lies on a whole nanometre (measured data usually
     /// does): the values at each nanometre from the first knot to the last,
@@ -26,17 +27,22 @@ impl TabulatedSpectrum {
     pub fn new(lambdas: Vec<f32>, values: Vec<f32>) -> Self {
         assert_eq!(lambdas.len(), values.len());
         assert!(lambdas.len() >= 2 && lambdas.windows(2).all(|w| w[0] < w[1]));
-        let segment_at_nm = (0..=(super::LAMBDA_MAX - super::LAMBDA_MIN) as u32)
-            .map(|nm| {
-                let lambda = super::LAMBDA_MIN + nm as f32;
-                (lambdas
-                    .partition_point(|&x| x <= lambda)
-                    .clamp(1, lambdas.len() - 1)
-                    - 1) as u32
-            })
-            .collect();
         let integral = lambdas.iter().all(|l| l.fract() == 0.0)
             && lambdas[lambdas.len() - 1] - lambdas[0] <= 100_000.0;
+        // Only tables without the dense copy look up segments.
+        let segment_at_nm = if integral {
+            Vec::new()
+        } else {
+            (0..=(super::LAMBDA_MAX - super::LAMBDA_MIN) as u32)
+                .map(|nm| {
+                    let lambda = super::LAMBDA_MIN + nm as f32;
+                    (lambdas
+                        .partition_point(|&x| x <= lambda)
+                        .clamp(1, lambdas.len() - 1)
+                        - 1) as u32
+                })
+                .collect()
+        };
         let mut table = Self {
             lambdas,
             values,

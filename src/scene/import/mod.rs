@@ -64,7 +64,8 @@ pub struct TextureCache {
 
 impl TextureCache {
     /// The texture for `key` (a path, or a file plus an image index),
-    /// decoding `bytes()` only the first time.
+    /// reading and decoding `bytes()` only the first time. Errors are as
+    /// `bytes` and the decoder give them; callers say which image it was.
     pub fn get(
         &mut self,
         key: String,
@@ -93,23 +94,9 @@ impl TextureCache {
             .display()
             .to_string();
         self.get(key, encoding, [Wrap::Repeat; 2], Filter::Bilinear, || {
-            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+            std::fs::read(path).map_err(|e| format!("cannot read: {e}"))
         })
-        .map_err(|e| {
-            if e.starts_with("cannot read") {
-                e
-            } else {
-                format!("{}: {e}", path.display())
-            }
-        })
-    }
-
-    pub fn len(&self) -> usize {
-        self.textures.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.textures.is_empty()
+        .map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 
