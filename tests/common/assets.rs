@@ -79,6 +79,27 @@ impl GltfBuilder {
         self.push_view(png)
     }
 
+    /// A sparse VEC2 float accessor over the base accessor's buffer view
+    /// (`base_view`, `count` elements): the elements at `indices` replaced
+    /// by `values`.
+    pub fn sparse_vec2(
+        &mut self,
+        base_view: usize,
+        count: usize,
+        indices: &[u16],
+        values: &[f32],
+    ) -> usize {
+        let i: Vec<u8> = indices.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let v: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let (iv, vv) = (self.push_view(&i), self.push_view(&v));
+        self.accessors.push(format!(
+            r#"{{"bufferView":{base_view},"componentType":5126,"count":{count},"type":"VEC2",
+              "sparse":{{"count":{},"indices":{{"bufferView":{iv},"componentType":5123}},"values":{{"bufferView":{vv}}}}}}}"#,
+            indices.len()
+        ));
+        self.accessors.len() - 1
+    }
+
     /// The JSON document without "buffers" (the writers add it); `rest`
     /// holds the other top-level members ("meshes", "nodes", …).
     pub fn json(&self, rest: &str) -> String {

@@ -29,7 +29,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use base64::Engine;
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 use gltf::texture::{MagFilter, WrappingMode};
 
@@ -54,7 +54,8 @@ const MAX_NODE_DEPTH: usize = 256;
 /// Loads a glTF or GLB file.
 pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(describe)?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(describe)?;
+    validate(gltf.as_json())?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(&gltf, base)?;
 
@@ -122,6 +123,189 @@ fn describe(e: gltf::Error) -> String {
         gltf::Error::Binary(e) => format!("broken GLB container: {e:?}"),
         other => format!("cannot parse glTF: {other}"),
     }
+}
+
+/// The element types the specification allows for the vertex attributes
+/// prism reads, and a stride that holds an element.
+fn check_accessor(a: &gltf::Accessor, semantic: &gltf::Semantic) -> Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    let (name, dims, types): (&str, Dimensions, &[DataType]) = match semantic {
+        gltf::Semantic::Positions => ("POSITION", Dimensions::Vec3, &[DataType::F32]),
+        gltf::Semantic::Normals => ("NORMAL", Dimensions::Vec3, &[DataType::F32]),
+        gltf::Semantic::Tangents => ("TANGENT", Dimensions::Vec4, &[DataType::F32]),
+        _ => (
+            "TEXCOORD_0",
+            Dimensions::Vec2,
+            &[DataType::F32, DataType::U8, DataType::U16],
+        ),
+    };
+    if a.dimensions() != dims || !types.contains(&a.data_type()) {
+        return Err(format!(
+            "{name} accessor {} holds {:?} of {:?}, which the specification does not allow",
+            a.index(),
+            a.dimensions(),
+            a.data_type()
+        ));
+    }
+    Ok(())
+}
+
+fn check_index_accessor(a: &gltf::Accessor) -> Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    if a.dimensions() != Dimensions::Scalar
+        || ![DataType::U8, DataType::U16, DataType::U32].contains(&a.data_type())
+    {
+        return Err(format!(
+            "index accessor {} holds {:?} of {:?}, not unsigned integer scalars",
+            a.index(),
+            a.dimensions(),
+            a.data_type()
+        ));
+    }
+    Ok(())
+}
+
+/// Elements an accessor without a buffer view (all zeros but its sparse
+/// values) may declare: its count is not bounded by any data in the file.
+const MAX_VIEWLESS_COUNT: usize = 1 << 26;
+
+/// An accessor's elements inside their buffer view and the view inside its
+/// buffer, in checked arithmetic: the crate's reader computes these ends
+/// unchecked and trusts the stride.
+fn check_layout(a: &gltf::Accessor, name: &str, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let fail = |why: String| format!("{name} accessor {}: {why}", a.index());
+    let size = a.size();
+    if a.count() == 0 {
+        return Err(fail("count is 0".into()));
+    }
+    match (a.view(), a.sparse()) {
+        (Some(view), _) => check_span(&view, a.offset(), a.count(), size, buffers).map_err(fail)?,
+        (None, Some(_)) if a.count() > MAX_VIEWLESS_COUNT => {
+            return Err(fail(format!(
+                "{} elements without a buffer view (at most {MAX_VIEWLESS_COUNT})",
+                a.count()
+            )))
+        }
+        (None, _) => {}
+    }
+    if let Some(sparse) = a.sparse() {
+        let n = sparse.count();
+        if n == 0 || n > a.count() {
+            return Err(fail(format!(
+                "sparse count {n} is not within 1..={}",
+                a.count()
+            )));
+        }
+        let (indices, values) = (sparse.indices(), sparse.values());
+        let index_size = indices.index_type().size();
+        check_span(&indices.view(), indices.offset(), n, index_size, buffers)
+            .map_err(|e| fail(format!("sparse indices: {e}")))?;
+        check_span(&values.view(), values.offset(), n, size, buffers)
+            .map_err(|e| fail(format!("sparse values: {e}")))?;
+    }
+    Ok(())
+}
+
+/// `count` elements of `size` bytes from `offset` in a buffer view.
+fn check_span(
+    view: &gltf::buffer::View,
+    offset: usize,
+    count: usize,
+    size: usize,
+    buffers: &[Vec<u8>],
+) -> Result<(), String> {
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "byteStride {stride} is smaller than an element ({size} bytes)"
+        ));
+    }
+    let buffer_len = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|end| end > buffer_len) {
+        return Err(format!(
+            "buffer view {} lies outside its buffer",
+            view.index()
+        ));
+    }
+    let end = stride
+        .checked_mul(count - 1)
+        .and_then(|x| x.checked_add(size))
+        .and_then(|x| x.checked_add(offset));
+    if end.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "its data lies outside buffer view {}",
+            view.index()
+        ));
+    }
+    Ok(())
+}
+
+/// The gltf crate's validation, with what it leaves out. Its own check
+/// that a primitive's POSITION accessor has bounds indexes the accessor
+/// before the index is checked, so the index is checked first. Then rules
+/// of the specification that it does not check but whose breach makes its
+/// accessors panic: an image in a buffer view needs a MIME type, an image
+/// needs a source, a camera needs the projection its type names.
+fn validate(json: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::mesh::Semantic;
+    use gltf::json::validation::{Checked, Validate};
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(a) = primitive
+                .attributes
+                .get(&Checked::Valid(Semantic::Positions))
+            {
+                if a.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "invalid glTF: meshes[{m}].primitives[{p}].attributes.POSITION: \
+                         accessor {} does not exist",
+                        a.value()
+                    ));
+                }
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    json.validate(json, gltf::json::Path::new, &mut |path, error| {
+        errors.push((path(), error))
+    });
+    if !errors.is_empty() {
+        return Err(describe(gltf::Error::Validation(errors)));
+    }
+    for (i, image) in json.images.iter().enumerate() {
+        match (&image.buffer_view, &image.uri) {
+            (Some(_), _) if image.mime_type.is_none() => {
+                return Err(format!(
+                    "invalid glTF: images[{i}] lies in a buffer view but has no mimeType"
+                ))
+            }
+            (None, None) => {
+                return Err(format!(
+                    "invalid glTF: images[{i}] has neither a uri nor a bufferView"
+                ))
+            }
+            _ => {}
+        }
+    }
+    for (i, camera) in json.cameras.iter().enumerate() {
+        use gltf::json::camera::Type;
+        let present = match camera.type_ {
+            gltf::json::validation::Checked::Valid(Type::Perspective) => {
+                camera.perspective.is_some()
+            }
+            gltf::json::validation::Checked::Valid(Type::Orthographic) => {
+                camera.orthographic.is_some()
+            }
+            gltf::json::validation::Checked::Invalid => true, // already refused
+        };
+        if !present {
+            return Err(format!(
+                "invalid glTF: cameras[{i}] has no object for its type"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The bytes of a `data:` URI, or of a file relative to the asset.
@@ -235,7 +419,9 @@ impl Context<'_> {
                 gltf::image::Source::Uri { uri, .. } => read_uri(uri, base),
                 gltf::image::Source::View { view, .. } => {
                     let data = &buffers[view.buffer().index()];
-                    data.get(view.offset()..view.offset() + view.length())
+                    view.offset()
+                        .checked_add(view.length())
+                        .and_then(|end| data.get(view.offset()..end))
                         .map(<[u8]>::to_vec)
                         .ok_or_else(|| "its buffer view lies outside the buffer".to_string())
                 }
@@ -385,7 +571,27 @@ impl Context<'_> {
                 "the node hierarchy is deeper than {MAX_NODE_DEPTH} (a cycle?)"
             ));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = match node.transform() {
+            gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
+            gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            } => {
+                // The specification asks for a unit quaternion; exporters
+                // round, and a scaled one would scale the node.
+                let q = Quat::from_array(rotation);
+                let len = q.length();
+                if !(len > 1e-6 && len.is_finite()) {
+                    return Err(format!(
+                        "node {}: rotation {rotation:?} is not a rotation quaternion",
+                        node.index()
+                    ));
+                }
+                Mat4::from_scale_rotation_translation(scale.into(), q / len, translation.into())
+            }
+        };
+        let world = parent * local;
         if !world.is_finite() {
             return Err(format!(
                 "node {} has a transform that is not finite",
@@ -449,7 +655,35 @@ impl Context<'_> {
 
     /// One primitive's triangles, or `None` for points and lines.
     fn primitive(&mut self, p: &gltf::Primitive, what: &str) -> Result<Option<Mesh>, String> {
+        // The crate's reader trusts an accessor's element type and layout;
+        // they are checked first. Broken required data is an error, broken
+        // optional data a warning.
         let buffers = self.buffers;
+        let mut usable = |semantic: gltf::Semantic, required: bool| -> Result<bool, String> {
+            let Some(accessor) = p.get(&semantic) else {
+                return Ok(false);
+            };
+            let checked = check_accessor(&accessor, &semantic)
+                .and_then(|()| check_layout(&accessor, &semantic.to_string(), buffers));
+            match checked {
+                Ok(()) => Ok(true),
+                Err(e) if required => Err(format!("{what}: {e}")),
+                Err(e) => {
+                    self.warnings
+                        .push(format!("{}: {what}: {e}; not used", self.file));
+                    Ok(false)
+                }
+            }
+        };
+        usable(gltf::Semantic::Positions, true)?;
+        let use_normals = usable(gltf::Semantic::Normals, false)?;
+        let use_uvs = usable(gltf::Semantic::TexCoords(0), false)?;
+        let use_tangents = usable(gltf::Semantic::Tangents, false)?;
+        if let Some(indices) = p.indices() {
+            check_index_accessor(&indices)
+                .and_then(|()| check_layout(&indices, "index", buffers))
+                .map_err(|e| format!("{what}: {e}"))?;
+        }
         let reader = p.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
         let outside = |attr: &str| format!("{what}: {attr} data lies outside its buffer");
         let count_of = |attr: gltf::Semantic| p.get(&attr).map_or(0, |a| a.count());
@@ -519,19 +753,19 @@ impl Context<'_> {
                 true
             }
         };
-        if let Some(normals) = reader.read_normals() {
+        if let Some(normals) = use_normals.then(|| reader.read_normals()).flatten() {
             let v: Vec<Vec3> = normals.map(Vec3::from).collect();
             if attribute("NORMAL", v.len(), v.iter().all(|n| n.is_finite())) {
                 mesh.normals = Some(v);
             }
         }
-        if let Some(uvs) = reader.read_tex_coords(0) {
+        if let Some(uvs) = use_uvs.then(|| reader.read_tex_coords(0)).flatten() {
             let v: Vec<Vec2> = uvs.into_f32().map(Vec2::from).collect();
             if attribute("TEXCOORD_0", v.len(), v.iter().all(|t| t.is_finite())) {
                 mesh.uvs = Some(v);
             }
         }
-        if let Some(tangents) = reader.read_tangents() {
+        if let Some(tangents) = use_tangents.then(|| reader.read_tangents()).flatten() {
             let v: Vec<Vec4> = tangents.map(Vec4::from).collect();
             if attribute("TANGENT", v.len(), v.iter().all(|t| t.is_finite())) {
                 mesh.tangents = Some(v);
