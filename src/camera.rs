@@ -27,7 +27,26 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Self {
-        let forward = (look_at - position).normalize();
+        Self::looking(
+            position,
+            look_at - position,
+            up,
+            fov_y_degrees,
+            width,
+            height,
+        )
+    }
+
+    /// A camera at `position` looking along `forward` (any length).
+    pub fn looking(
+        position: Vec3,
+        forward: Vec3,
+        up: Vec3,
+        fov_y_degrees: f32,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let forward = forward.normalize();
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         Self {

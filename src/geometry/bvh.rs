@@ -149,7 +149,9 @@ impl Bvh {
         ray: &Ray,
         tris: &[[Vec3; 3]],
     ) -> Option<(u32, TriangleHit)> {
-        if self.nodes.is_empty() {
+        // A NaN in the ray would pass every slab test (SIMD min/max drop
+        // NaN operands), empty slots included, and never end.
+        if self.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return None;
         }
         let shear = RayShear::new(ray);
@@ -508,6 +510,21 @@ mod tests {
         let _ = bvh.intersect(&ray, &ordered);
         let hit = bvh.intersect(&Ray::new(Vec3::new(5.2, 5.2, 4.0), Vec3::Z), &ordered);
         assert!(hit.is_some());
+        // Rays with a NaN (a camera far from the origin once normalised a
+        // zero direction) hit nothing instead of looping over empty slots.
+        for (o, d) in [
+            (Vec3::new(5.2, 5.2, 4.0), Vec3::NAN),
+            (Vec3::new(f32::NAN, 5.2, 4.0), Vec3::Z),
+            (Vec3::new(5.2, 5.2, f32::INFINITY), Vec3::Z),
+        ] {
+            let ray = Ray {
+                origin: o,
+                dir: d,
+                t_max: f32::INFINITY,
+            };
+            assert!(bvh.intersect(&ray, &ordered).is_none());
+            assert!(!bvh.occluded(&ray, &ordered));
+        }
     }
 
     #[test]

@@ -19,6 +19,9 @@ use crate::material::{ior, metals, Ior, Material};
 use crate::spectrum::{cie, csv, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN};
 use crate::texture::{Encoding, TextureRef};
 
+/// The largest vertex coordinate a scene may hold (see `Loader::place`).
+const MAX_COORDINATE: f32 = 1e12;
+
 /// Largest image side accepted.
 const MAX_RESOLUTION: u32 = 32_768;
 /// Largest film memory accepted (pixel sums and spectral buckets).
@@ -337,9 +340,24 @@ impl Loader {
         if shape.flip_normals {
             mesh.flip();
         }
+        let from = shape.file.as_ref().map_or(String::new(), |f| {
+            format!(" ({})", self.base.join(f).display())
+        });
         if mesh.positions.iter().any(|p| !p.is_finite()) {
             return Err(self.error(format!(
-                "`{key}`: vertex positions are not finite (after the transform)"
+                "`{key}`{from}: vertex positions are not finite (after the transform)"
+            )));
+        }
+        // Single-precision geometry squares lengths (areas, distances to
+        // lights): coordinates beyond this would overflow them.
+        if let Some(p) = mesh
+            .positions
+            .iter()
+            .find(|p| p.abs().max_element() > MAX_COORDINATE)
+        {
+            return Err(self.error(format!(
+                "`{key}`{from}: vertex at {p} lies beyond ±{MAX_COORDINATE:e}, the range of prism's \
+                 single-precision geometry (after the transform)"
             )));
         }
         Ok(())
@@ -552,6 +570,11 @@ impl Loader {
         if forward.length_squared() == 0.0 {
             return Err(self.error("`camera.look_at` must differ from `camera.position`"));
         }
+        if pos.abs().max_element() > MAX_COORDINATE {
+            return Err(self.error(format!(
+                "`camera.position` {pos} lies beyond ±{MAX_COORDINATE:e}, the range of prism's single-precision geometry"
+            )));
+        }
         if forward.normalize().cross(up).length_squared() < 1e-12 {
             return Err(self.error("`camera.up` must not be parallel to the viewing direction"));
         }
@@ -600,21 +623,35 @@ impl Loader {
                 list(names.into_iter())
             )));
         };
-        if cam.forward == Vec3::ZERO || cam.forward.cross(cam.up).length_squared() < 1e-12 {
+        let finite = cam.position.is_finite() && cam.forward.is_finite() && cam.up.is_finite();
+        if !finite || !(cam.forward.cross(cam.up).length_squared() >= 1e-12) {
             return Err(self.error(format!(
-                "`camera.from_file`: camera `{}` has a degenerate transform",
+                "`camera.from_file`: {}: camera `{}` has a degenerate transform",
+                path.display(),
                 cam.name
+            )));
+        }
+        if cam.position.abs().max_element() > MAX_COORDINATE {
+            return Err(self.error(format!(
+                "`camera.from_file`: {}: camera `{}` at {} lies beyond ±{MAX_COORDINATE:e}, the range of prism's single-precision geometry",
+                path.display(),
+                cam.name,
+                cam.position
             )));
         }
         if !(cam.yfov > 0.0 && cam.yfov < 180.0) {
             return Err(self.error(format!(
-                "`camera.from_file`: camera `{}` has a field of view of {} degrees",
-                cam.name, cam.yfov
+                "`camera.from_file`: {}: camera `{}` has a field of view of {} degrees",
+                path.display(),
+                cam.name,
+                cam.yfov
             )));
         }
-        Ok(Camera::look_at(
+        // Looking along the direction, not at position + forward: far from
+        // the origin that sum rounds back to the position.
+        Ok(Camera::looking(
             cam.position,
-            cam.position + cam.forward,
+            cam.forward,
             cam.up,
             cam.yfov,
             s.width,
