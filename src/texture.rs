@@ -118,8 +118,18 @@ impl Texture {
     fn footprint(&self, uv: Vec2) -> [(usize, f32); 4] {
         let (w, h) = (self.width as i64, self.height as i64);
         // Texel centres sit at half-integers.
-        let x = uv.x * w as f32 - 0.5;
-        let y = uv.y * h as f32 - 0.5;
+        // Beyond ±2²⁴ texels single precision has no fraction left; the
+        // bound keeps the integer arithmetic in range, and a NaN from a
+        // broken transform reads texel 0 instead of poisoning the path.
+        let bound = |v: f32| {
+            if v.is_finite() {
+                v.clamp(-16_777_216.0, 16_777_216.0)
+            } else {
+                0.0
+            }
+        };
+        let x = bound(uv.x * w as f32 - 0.5);
+        let y = bound(uv.y * h as f32 - 0.5);
         if self.filter == Filter::Nearest {
             let i = wrap(x.round() as i64, w, self.wrap[0]);
             let j = wrap(y.round() as i64, h, self.wrap[1]);
@@ -258,6 +268,31 @@ mod tests {
         t.filter = Filter::Nearest;
         assert_eq!(t.linear(Vec2::new(0.45, 0.5)).x, 0.0);
         assert_eq!(t.linear(Vec2::new(0.55, 0.5)).x, 1.0);
+    }
+
+    #[test]
+    fn extreme_coordinates_read_a_texel() {
+        // Far out, infinite or NaN coordinates (from broken files or
+        // transforms) give a finite texel, never an integer overflow.
+        let rgba = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+            for filter in [Filter::Bilinear, Filter::Nearest] {
+                let mut t = Texture::from_rgba(2, 1, &rgba, Encoding::Linear);
+                t.wrap = [wrap; 2];
+                t.filter = filter;
+                for v in [
+                    1e30,
+                    -1e30,
+                    f32::INFINITY,
+                    f32::NEG_INFINITY,
+                    f32::NAN,
+                    9.2e18,
+                ] {
+                    let x = t.linear(Vec2::new(v, -v)).x;
+                    assert!((0.0..=1.0).contains(&x), "{v} {wrap:?} {filter:?}: {x}");
+                }
+            }
+        }
     }
 
     #[test]
