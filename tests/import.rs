@@ -113,6 +113,25 @@ fn gltf_external_embedded_and_glb_give_the_same_geometry() {
     let h = hit(s, Vec3::new(-1.0, 1.0, 5.0), -Vec3::Z);
     assert!((h.uv - Vec2::new(0.25, 0.25)).length() < 1e-5, "{}", h.uv);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // A rotation quaternion of length 3 (exporters round; broken files
+    // scale) rotates like the unit one instead of scaling by 9.
+    let turned = json.replace(
+        r#""translation":[0,0,-1]"#,
+        r#""translation":[0,0,-1],"rotation":[0,0,2.1213203,2.1213203]"#,
+    );
+    let f = assets::write_glb(dir.path(), "turned", &turned, &b.bin);
+    let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
+    let reach = |x: f32| {
+        s.intersect(&Ray::new(Vec3::new(x, 0.0, 5.0), -Vec3::Z))
+            .is_some()
+    };
+    // Turned 90° about z the quad still spans ±2.
+    assert!(reach(1.9) && !reach(2.1));
+    // Coordinates beyond single precision's comfortable range are refused.
+    let far = json.replace(r#""translation":[0,0,-1]"#, r#""translation":[0,0,1e13]"#);
+    let f = assets::write_glb(dir.path(), "far", &far, &b.bin);
+    let e = scene_error(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, "")));
+    assert!(e.contains("far.glb") && e.contains("beyond"), "{e}");
 }
 
 #[test]
@@ -140,6 +159,26 @@ fn gltf_non_indexed_primitives_and_missing_normals() {
     let h = hit(&s, Vec3::new(0.3, -0.2, 5.0), -Vec3::Z);
     assert_eq!(h.ns, h.ng);
     assert_eq!(h.ng, Vec3::Z);
+}
+
+#[test]
+fn gltf_sparse_accessor_replaces_elements() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = GltfBuilder::default();
+    let prim = assets::quad(&mut b, true);
+    // Vertex 2 (the +x +y corner, uv (1, 0)) gets uv (0.5, 0.25).
+    let uv = b.sparse_vec2(1, 4, &[2], &[0.5, 0.25]);
+    let prim = prim.replace(r#""TEXCOORD_0":1"#, &format!(r#""TEXCOORD_0":{uv}"#));
+    let json = b.json(&format!(
+        r#""scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{prim}}}]}}]"#
+    ));
+    let f = assets::write_glb(dir.path(), "sparse", &json, &b.bin);
+    let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let near = |p: Vec3| hit(&s, p + Vec3::Z * 5.0, -Vec3::Z).uv;
+    assert!((near(Vec3::new(0.999, 0.999, 0.0)) - Vec2::new(0.5, 0.25)).length() < 0.01);
+    // Untouched corners keep the base values.
+    assert!((near(Vec3::new(-0.999, -0.999, 0.0)) - Vec2::new(0.0, 1.0)).length() < 0.01);
 }
 
 #[test]
@@ -556,6 +595,46 @@ fn broken_gltf_files_are_clear_errors() {
     let cyc = json.replace(r#""mesh":0}"#, r#""mesh":0,"children":[0]}"#);
     let f = assets::write_glb(dir.path(), "cycle", &cyc, &b.bin);
     check(&f, &[]);
+    // Breaches the gltf crate does not validate but would panic on: an
+    // image in a buffer view without its MIME type, an image without any
+    // source, a camera whose type names a projection it lacks.
+    let mut img = GltfBuilder::default();
+    let prim = assets::quad(&mut img, true);
+    let view = img.image_view(&assets::png(1, 1, &[200, 100, 50, 255]));
+    let with_image = |image: &str, camera: &str| {
+        img.json(&format!(
+            r#""scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],"cameras":[{camera}],
+            "meshes":[{{"primitives":[{prim},"material":0}}]}}],
+            "images":[{image}],"textures":[{{"source":0}}],
+            "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}]"#
+        ))
+    };
+    let perspective = r#"{"type":"perspective","perspective":{"yfov":0.7,"znear":0.1}}"#;
+    let cases = [
+        (
+            "nomime",
+            with_image(&format!(r#"{{"bufferView":{view}}}"#), perspective),
+            "mimeType",
+        ),
+        ("nosource", with_image("{}", perspective), "neither"),
+        (
+            "camtype",
+            with_image(
+                &format!(r#"{{"bufferView":{view},"mimeType":"image/png"}}"#),
+                r#"{"type":"perspective","orthographic":{"xmag":1,"ymag":1,"znear":0.1,"zfar":9}}"#,
+            ),
+            "cameras[0]",
+        ),
+    ];
+    // The crate's own validation would index a missing POSITION accessor.
+    let far = json.replacen(r#""POSITION":0"#, r#""POSITION":99"#, 1);
+    assert_ne!(far, json);
+    let f = assets::write_glb(dir.path(), "posindex", &far, &b.bin);
+    check(&f, &["POSITION", "99"]);
+    for (name, json, expect) in cases {
+        let f = assets::write_glb(dir.path(), name, &json, &img.bin);
+        check(&f, &[expect]);
+    }
 }
 
 const OBJ: &str = "\

@@ -5,6 +5,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# The property-based fuzzers (tests/fuzz.rs) draw a few hundred cases each;
+# a fixed seed makes a CI run reproducible. Fresh seeds and more cases:
+# PROPTEST_CASES=100000 cargo test --test fuzz
+export PROPTEST_RNG_SEED="${PROPTEST_RNG_SEED:-20261122}"
 cargo test
 # The colour-science checks run the release binary.
 cargo build --release
