@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::microfacet::{reflect, Ggx};
-use super::{facing_frame, fresnel, BsdfSample, ShadingGeometry};
+use super::{facing_frame, fresnel, reflected_pair, BsdfSample, ShadingGeometry};
 use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
 
@@ -54,11 +54,10 @@ impl ConductorBsdf {
     }
 
     fn local_pair(&self, wi: Vec3) -> Option<(Vec3, Vec3)> {
-        if self.is_specular() || wi.dot(self.ng) <= 0.0 {
+        if self.is_specular() {
             return None;
         }
-        let (wo, wi) = (self.wo, self.frame.to_local(wi));
-        (wo.z > 0.0 && wi.z > 0.0).then_some((wo, wi))
+        reflected_pair(&self.frame, self.ng, self.wo, wi)
     }
 
     pub fn eval(&self, wi: Vec3) -> SampledSpectrum {

@@ -278,6 +278,17 @@ pub(crate) fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
     (Frame::from_normal(ns), ng)
 }
 
+/// `wo` (already local) and `wi` in `frame` when both lie above the
+/// surface, for both the geometric normal `ng` and the shading normal: the
+/// domain of the one-sided reflection lobes.
+pub(crate) fn reflected_pair(frame: &Frame, ng: Vec3, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    if wi.dot(ng) <= 0.0 {
+        return None;
+    }
+    let wi = frame.to_local(wi);
+    (wo.z > 0.0 && wi.z > 0.0).then_some((wo, wi))
+}
+
 /// Cosine-weighted direction on the +z hemisphere (Malley's method over a
 /// concentric disk sample).
 pub fn cosine_hemisphere(u: (f32, f32)) -> Vec3 {

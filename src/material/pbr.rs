@@ -22,7 +22,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use glam::Vec3;
 
 use super::microfacet::{reflect, Ggx};
-use super::{cosine_hemisphere, facing_frame, BsdfSample, ShadingGeometry};
+use super::{cosine_hemisphere, facing_frame, reflected_pair, BsdfSample, ShadingGeometry};
 use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
 
@@ -98,11 +98,7 @@ impl PbrBsdf {
     }
 
     fn local_pair(&self, wi: Vec3) -> Option<(Vec3, Vec3)> {
-        if wi.dot(self.ng) <= 0.0 {
-            return None;
-        }
-        let (wo, wi) = (self.wo, self.frame.to_local(wi));
-        (wo.z > 0.0 && wi.z > 0.0).then_some((wo, wi))
+        reflected_pair(&self.frame, self.ng, self.wo, wi)
     }
 
     pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
