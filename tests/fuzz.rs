@@ -151,12 +151,21 @@ fn obj_line() -> impl Strategy<Value = String> {
     ]
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(400),
+/// `cases` cases unless PROPTEST_CASES says otherwise; no failure files
+/// (a failure prints its minimal input, and CI's seed is fixed).
+fn config(cases: u32) -> ProptestConfig {
+    ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|c| c.parse().ok())
+            .unwrap_or(cases),
         failure_persistence: None,
         ..ProptestConfig::default()
-    })]
+    }
+}
+
+proptest! {
+    #![proptest_config(config(400))]
 
     #[test]
     fn mangled_scenes_load_or_fail_cleanly(text in mangled_scene()) {
@@ -201,11 +210,7 @@ fn sample_glb() -> Vec<u8> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(300),
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(config(300))]
 
     #[test]
     fn damaged_glb_files_load_or_fail_cleanly(
@@ -401,11 +406,7 @@ fn edit(doc: &mut serde_json::Value, at: f64, op: u8, value: u8) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(300),
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(config(300))]
 
     #[test]
     fn edited_gltf_documents_load_or_fail_cleanly(

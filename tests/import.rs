@@ -727,52 +727,55 @@ fn obj_with_mtl_polygons_groups_and_textures() {
         "{:?}",
         s.warnings
     );
-    // The undefined material `nosuch` gets the scene default (diffuse 0.5).
-    assert!(s.warnings.iter().all(|w| !w.contains("panic")));
+    // The undefined material `nosuch` (face 3 4 7) gets the scene default,
+    // diffuse 0.5: seen by a ray onto the face along its normal.
+    let corners = [
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::new(0.7, 1.0, 0.0),
+    ];
+    let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+    let n = (corners[1] - corners[0])
+        .cross(corners[2] - corners[0])
+        .normalize();
+    let h = hit(&s, centre + 0.01 * n, -n);
+    assert!(matches!(
+        s.materials[h.material as usize],
+        Material::Diffuse { .. }
+    ));
+    let r = reflectance_at(&s, &h);
+    assert!((r - Vec4::splat(0.5)).abs().max_element() < 1e-5, "{r}");
 }
 
 #[test]
 fn obj_missing_or_broken_mtl_is_a_warning() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("scene.obj"), OBJ).unwrap();
-    let s = scene_in(
-        dir.path(),
-        &format!("{CAMERA}{}", shape("obj", "scene.obj", "")),
-    )
-    .unwrap();
+    // Loads scene.obj and checks that a warning names `what`.
+    let load_warning = |what: &str| {
+        let s = scene_in(
+            dir.path(),
+            &format!("{CAMERA}{}", shape("obj", "scene.obj", "")),
+        )
+        .unwrap();
+        assert!(
+            s.warnings.iter().any(|w| w.contains(what)),
+            "{what}: {:?}",
+            s.warnings
+        );
+        s
+    };
+    let s = load_warning("scene.mtl");
     assert_eq!(s.triangle_count(), 9);
-    assert!(
-        s.warnings.iter().any(|w| w.contains("scene.mtl")),
-        "{:?}",
-        s.warnings
-    );
     assert!(s
         .materials
         .iter()
         .all(|m| matches!(m, Material::Diffuse { .. })));
     // A broken library, and a missing texture: warnings, the rest loads.
     std::fs::write(dir.path().join("scene.mtl"), "newmtl checker\nKd 1 x\n").unwrap();
-    let s = scene_in(
-        dir.path(),
-        &format!("{CAMERA}{}", shape("obj", "scene.obj", "")),
-    )
-    .unwrap();
-    assert!(
-        s.warnings.iter().any(|w| w.contains("scene.mtl")),
-        "{:?}",
-        s.warnings
-    );
+    load_warning("scene.mtl");
     std::fs::write(dir.path().join("scene.mtl"), MTL).unwrap();
-    let s = scene_in(
-        dir.path(),
-        &format!("{CAMERA}{}", shape("obj", "scene.obj", "")),
-    )
-    .unwrap();
-    assert!(
-        s.warnings.iter().any(|w| w.contains("checker.png")),
-        "{:?}",
-        s.warnings
-    );
+    load_warning("checker.png");
     // The scene's material overrides the file's, all at once or by name.
     let text = format!(
         "{CAMERA}[materials.grey]\ntype = \"diffuse\"\n{}",
