@@ -7,7 +7,7 @@ mod common;
 use glam::{Vec3, Vec4};
 use prism::geometry::offset::offset_ray_origin;
 use prism::geometry::Ray;
-use prism::material::{Ior, ShadingGeometry};
+use prism::material::{Ior, ShadingGeometry, TransportMode};
 use prism::render::{render, RenderOptions};
 use prism::spectrum::SampledWavelengths;
 
@@ -32,7 +32,7 @@ fn trace(scene: &prism::scene::Scene, origin: Vec3, dir: Vec3, lambda: f32) -> V
         let bsdf = material.bsdf(&geom, glam::Vec2::ZERO, &mut wl, Vec4::splat(n));
         // uc just below 1 picks refraction (Fresnel reflectance < 1).
         let smp = bsdf
-            .sample(0.999_999, (0.5, 0.5))
+            .sample(geom.wo, 0.999_999, (0.5, 0.5), TransportMode::Radiance)
             .expect("refraction, not total internal reflection");
         ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, smp.wi), smp.wi);
     }

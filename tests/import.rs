@@ -68,7 +68,7 @@ fn reflectance_at(scene: &Scene, h: &prism::scene::SurfaceHit) -> Vec4 {
         wo: h.ng,
     };
     let b = scene.materials[h.material as usize].bsdf(&geom, h.uv, &mut wavelengths(), Vec4::ONE);
-    b.eval(h.ng) * std::f32::consts::PI
+    b.f(h.ng, h.ng, prism::material::TransportMode::Radiance) * std::f32::consts::PI
 }
 
 /// A glTF document: one quad mesh under a translated parent node whose

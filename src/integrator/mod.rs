@@ -10,7 +10,7 @@ use glam::Vec4;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightSet;
-use crate::material::{Bsdf, ShadingGeometry};
+use crate::material::{Bsdf, ShadingGeometry, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, Strategy, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -149,7 +149,7 @@ pub fn radiance(
         let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
 
         if strategy != Strategy::Bsdf && !bsdf.is_specular() {
-            l += beta * sample_direct(scene, &hit, &bsdf, wl, sampler, counters);
+            l += beta * sample_direct(scene, &hit, wo, &bsdf, wl, sampler, counters);
         } else {
             // Keep the dimensions of later bounces aligned across samples.
             sampler.skip_4d();
@@ -158,11 +158,11 @@ pub fn radiance(
         // One 4D point per bounce: the BSDF's direction (2D), its lobe
         // choice, and Russian roulette.
         let [u0, u1, uc, u_rr] = sampler.next_4d();
-        let Some(bs) = bsdf.sample(uc, (u0, u1)) else {
+        let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Radiance) else {
             break;
         };
         beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-        specular = bs.specular;
+        specular = bs.is_specular();
         prev_bsdf_pdf = bs.pdf;
         ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
 
@@ -204,6 +204,7 @@ pub fn radiance(
 fn sample_direct(
     scene: &Scene,
     hit: &SurfaceHit,
+    wo: glam::Vec3,
     bsdf: &Bsdf,
     wl: &SampledWavelengths,
     sampler: &mut Sampler,
@@ -232,7 +233,8 @@ fn sample_direct(
     if le == SampledSpectrum::ZERO || cos_light == 0.0 {
         return SampledSpectrum::ZERO;
     }
-    let f = bsdf.eval(wi) * bsdf.cos_theta(wi);
+    let e = bsdf.eval(wo, wi, TransportMode::Radiance);
+    let f = e.f * bsdf.cos_theta(wi);
     if f == SampledSpectrum::ZERO {
         return SampledSpectrum::ZERO;
     }
@@ -249,7 +251,7 @@ fn sample_direct(
     }
     let light_pdf = pmf * dist2 / (cos_light * area);
     let weight = if scene.settings.strategy == Strategy::Mis {
-        power_heuristic(light_pdf, bsdf.pdf(wi))
+        power_heuristic(light_pdf, e.pdf)
     } else {
         1.0
     };

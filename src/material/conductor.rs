@@ -3,45 +3,33 @@
 
 use glam::Vec3;
 
+use super::bsdf::{to_side_of, upper, BsdfEval, BsdfFlags, LobeSample, TransportMode};
+use super::fresnel;
 use super::microfacet::{reflect, Ggx};
-use super::{facing_frame, fresnel, reflected_pair, BsdfSample, ShadingGeometry};
-use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
 
 #[derive(Clone, Copy, Debug)]
-pub struct ConductorBsdf {
-    frame: Frame,
-    ng: Vec3,
-    wo: Vec3,
+pub struct ConductorLobe {
     eta: SampledSpectrum,
     k: SampledSpectrum,
     ggx: Ggx,
 }
 
-impl ConductorBsdf {
-    pub fn new(
-        eta: SampledSpectrum,
-        k: SampledSpectrum,
-        alpha: f32,
-        geom: &ShadingGeometry,
-    ) -> Self {
-        let (frame, ng) = facing_frame(geom);
+impl ConductorLobe {
+    pub fn new(eta: SampledSpectrum, k: SampledSpectrum, alpha: f32) -> Self {
         Self {
-            frame,
-            ng,
-            wo: frame.to_local(geom.wo),
             eta,
             k,
             ggx: Ggx::new(alpha),
         }
     }
 
-    pub fn frame(&self) -> &Frame {
-        &self.frame
-    }
-
-    pub fn is_specular(&self) -> bool {
-        self.ggx.is_smooth()
+    pub fn flags(&self) -> BsdfFlags {
+        if self.ggx.is_smooth() {
+            BsdfFlags::REFLECTION | BsdfFlags::SPECULAR
+        } else {
+            BsdfFlags::REFLECTION | BsdfFlags::GLOSSY
+        }
     }
 
     fn fresnel(&self, cos: f32) -> SampledSpectrum {
@@ -53,62 +41,42 @@ impl ConductorBsdf {
         )
     }
 
-    fn local_pair(&self, wi: Vec3) -> Option<(Vec3, Vec3)> {
-        if self.is_specular() {
-            return None;
+    pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> BsdfEval {
+        let (wo, wi) = upper(wo, wi);
+        if self.ggx.is_smooth() || wi.z <= 0.0 {
+            return BsdfEval::ZERO;
         }
-        reflected_pair(&self.frame, self.ng, self.wo, wi)
-    }
-
-    pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
-        let Some((wo, wi)) = self.local_pair(wi) else {
-            return SampledSpectrum::ZERO;
-        };
         let wm = (wo + wi).normalize();
-        self.fresnel(wo.dot(wm).abs()) * self.ggx.reflection(wo, wi, wm)
-    }
-
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        let Some((wo, wi)) = self.local_pair(wi) else {
-            return 0.0;
-        };
-        let wm = (wo + wi).normalize();
-        self.ggx.reflection_pdf(wo, wm)
-    }
-
-    pub fn sample(&self, u: (f32, f32)) -> Option<BsdfSample> {
-        let wo = self.wo;
-        if wo.z <= 0.0 {
-            return None;
+        BsdfEval {
+            f: self.fresnel(wo.dot(wm).abs()) * self.ggx.reflection(wo, wi, wm),
+            pdf: self.ggx.reflection_pdf(wo, wm),
         }
-        if self.is_specular() {
-            let wi = self.frame.to_world(Vec3::new(-wo.x, -wo.y, wo.z));
-            if wi.dot(self.ng) <= 0.0 {
-                return None;
-            }
-            return Some(BsdfSample {
-                wi,
-                f: self.fresnel(wo.z) / wo.z,
+    }
+
+    pub fn sample(
+        &self,
+        wo: Vec3,
+        _uc: f32,
+        u: (f32, f32),
+        _mode: TransportMode,
+    ) -> Option<LobeSample> {
+        let (up, _) = upper(wo, wo);
+        if self.ggx.is_smooth() {
+            return Some(LobeSample::Dirac {
+                wi: Vec3::new(-wo.x, -wo.y, wo.z),
+                f: self.fresnel(up.z) / up.z,
                 pdf: 1.0,
-                specular: true,
+                flags: self.flags(),
                 eta: 1.0,
             });
         }
-        let wm = self.ggx.sample_wm(wo, u);
-        let wi_local = reflect(wo, wm);
-        if wi_local.z <= 0.0 {
+        let wi = reflect(up, self.ggx.sample_wm(up, u));
+        if wi.z <= 0.0 {
             return None;
         }
-        let wi = self.frame.to_world(wi_local);
-        let pdf = self.pdf(wi);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            f: self.eval(wi),
-            pdf,
-            specular: false,
+        Some(LobeSample::Direction {
+            wi: to_side_of(wo, wi),
+            flags: self.flags(),
             eta: 1.0,
         })
     }

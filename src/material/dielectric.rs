@@ -5,18 +5,14 @@
 
 use glam::Vec3;
 
+use super::bsdf::{BsdfEval, BsdfFlags, LobeSample, TransportMode};
+use super::fresnel;
 use super::microfacet::{reflect, Ggx};
-use super::{fresnel, BsdfSample, ShadingGeometry};
-use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
 
 #[derive(Clone, Copy, Debug)]
-pub struct DielectricBsdf {
-    /// Shading frame on the front (outside) face: +z points outside.
-    frame: Frame,
-    ng: Vec3,
-    wo: Vec3,
-    /// n_inside / n_outside at each wavelength.
+pub struct DielectricLobe {
+    /// n_inside / n_outside at each wavelength (local +z points outside).
     eta: SampledSpectrum,
     ggx: Ggx,
     /// Rough and dispersive: keep all wavelengths, each weighted by the
@@ -50,52 +46,33 @@ pub fn is_dispersive(eta: SampledSpectrum) -> bool {
     eta.x != eta.y || eta.x != eta.z || eta.x != eta.w
 }
 
-impl DielectricBsdf {
-    /// `geom.ng` must be the front-face normal (not flipped towards `wo`).
+impl DielectricLobe {
     /// `secondaries_alive`: the path still carries all four wavelengths
     /// (spectral MIS must not average over terminated ones).
-    pub fn new(
-        eta: SampledSpectrum,
-        alpha: f32,
-        geom: &ShadingGeometry,
-        secondaries_alive: bool,
-    ) -> Self {
-        let ns = if geom.ns.dot(geom.ng) < 0.0 {
-            -geom.ns
-        } else {
-            geom.ns
-        };
-        let frame = Frame::from_normal(ns);
+    pub fn new(eta: SampledSpectrum, alpha: f32, secondaries_alive: bool) -> Self {
         let ggx = Ggx::new(alpha);
-        let dispersive = is_dispersive(eta);
         Self {
-            frame,
-            ng: geom.ng,
-            wo: frame.to_local(geom.wo),
             eta,
             ggx,
-            spectral_mis: dispersive && !ggx.is_smooth() && secondaries_alive,
+            spectral_mis: is_dispersive(eta) && !ggx.is_smooth() && secondaries_alive,
         }
-    }
-
-    pub fn frame(&self) -> &Frame {
-        &self.frame
     }
 
     pub fn is_specular(&self) -> bool {
         self.ggx.is_smooth()
     }
 
-    /// Reflection must stay on the side of the geometric surface it came
-    /// from and transmission must cross it, whatever the shading normal says.
-    fn geometry_agrees(&self, wi: Vec3, reflect: bool) -> bool {
-        let wo_world = self.frame.to_world(self.wo);
-        let same_side = wo_world.dot(self.ng) * wi.dot(self.ng) > 0.0;
-        same_side == reflect
+    pub fn flags(&self) -> BsdfFlags {
+        let both = BsdfFlags::REFLECTION | BsdfFlags::TRANSMISSION;
+        if self.is_specular() {
+            both | BsdfFlags::SPECULAR
+        } else {
+            both | BsdfFlags::GLOSSY
+        }
     }
 
-    /// f and density of the rough lobes at one wavelength (local directions).
-    fn rough(&self, wo: Vec3, wi: Vec3, eta: f32) -> (f32, f32) {
+    /// f and density of the rough lobes at one wavelength.
+    fn rough(&self, wo: Vec3, wi: Vec3, eta: f32, mode: TransportMode) -> (f32, f32) {
         let (co, ci) = (wo.z, wi.z);
         if co == 0.0 || ci == 0.0 {
             return (0.0, 0.0);
@@ -133,28 +110,10 @@ impl DielectricBsdf {
             if denom == 0.0 {
                 return (0.0, 0.0);
             }
-            // Radiance is compressed into the denser medium: divide by η'².
-            let f = d * g * t * (wi.dot(wm) * wo.dot(wm) / (ci * co * denom)).abs() / (etap * etap);
+            let f = d * g * t * (wi.dot(wm) * wo.dot(wm) / (ci * co * denom)).abs();
             let pdf = self.ggx.d_visible(wo, wm) * wi.dot(wm).abs() / denom * t;
-            (f, pdf)
+            (f / radiance_scale(etap, mode), pdf)
         }
-    }
-
-    fn rough_all(&self, wi_world: Vec3) -> (SampledSpectrum, SampledSpectrum) {
-        let wi = self.frame.to_local(wi_world);
-        let reflect = self.wo.z * wi.z > 0.0;
-        if !self.geometry_agrees(wi_world, reflect) {
-            return (SampledSpectrum::ZERO, SampledSpectrum::ZERO);
-        }
-        let mut f = [0.0; 4];
-        let mut pdf = [0.0; 4];
-        for k in 0..4 {
-            (f[k], pdf[k]) = self.rough(self.wo, wi, self.eta[k]);
-        }
-        (
-            SampledSpectrum::from_array(f),
-            SampledSpectrum::from_array(pdf),
-        )
     }
 
     /// The density of sampling `wi`: the hero's, or with spectral MIS the
@@ -167,22 +126,28 @@ impl DielectricBsdf {
         }
     }
 
-    pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> BsdfEval {
         if self.is_specular() {
-            return SampledSpectrum::ZERO;
+            return BsdfEval::ZERO;
         }
-        self.rough_all(wi).0
+        let mut f = [0.0; 4];
+        let mut pdf = [0.0; 4];
+        for k in 0..4 {
+            (f[k], pdf[k]) = self.rough(wo, wi, self.eta[k], mode);
+        }
+        BsdfEval {
+            f: SampledSpectrum::from_array(f),
+            pdf: self.combined_pdf(SampledSpectrum::from_array(pdf)),
+        }
     }
 
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        if self.is_specular() {
-            return 0.0;
-        }
-        self.combined_pdf(self.rough_all(wi).1)
-    }
-
-    pub fn sample(&self, uc: f32, u: (f32, f32)) -> Option<BsdfSample> {
-        let wo = self.wo;
+    pub fn sample(
+        &self,
+        wo: Vec3,
+        uc: f32,
+        u: (f32, f32),
+        mode: TransportMode,
+    ) -> Option<LobeSample> {
         let eta = self.eta.x;
         if self.is_specular() {
             let r = fresnel::dielectric(wo.z, eta);
@@ -192,12 +157,11 @@ impl DielectricBsdf {
                     .eta
                     .to_array()
                     .map(|e| fresnel::dielectric(wo.z, e) / wi.z.abs());
-                let wi = self.frame.to_world(wi);
-                return self.geometry_agrees(wi, true).then_some(BsdfSample {
+                return Some(LobeSample::Dirac {
                     wi,
                     f: SampledSpectrum::from_array(f),
                     pdf: r,
-                    specular: true,
+                    flags: BsdfFlags::REFLECTION | BsdfFlags::SPECULAR,
                     eta: 1.0,
                 });
             }
@@ -208,46 +172,50 @@ impl DielectricBsdf {
             // A smooth dispersive interface has terminated the secondary
             // wavelengths: only the hero's value matters; the others get
             // their own Fresnel factor for the non-dispersive case.
+            let scale = radiance_scale(etap, mode);
             let f = self
                 .eta
                 .to_array()
-                .map(|e| (1.0 - fresnel::dielectric(wo.z, e)) / wi.z.abs() / (etap * etap));
-            let wi_world = self.frame.to_world(wi);
-            return self.geometry_agrees(wi_world, false).then_some(BsdfSample {
-                wi: wi_world,
+                .map(|e| (1.0 - fresnel::dielectric(wo.z, e)) / wi.z.abs() / scale);
+            return Some(LobeSample::Dirac {
+                wi,
                 f: SampledSpectrum::from_array(f),
                 pdf: 1.0 - r,
-                specular: true,
+                flags: BsdfFlags::TRANSMISSION | BsdfFlags::SPECULAR,
                 eta: etap,
             });
         }
         let wm = self.ggx.sample_wm(wo, u);
         let r = fresnel::dielectric(wo.dot(wm), eta);
-        let (wi, etap) = if uc < r {
+        if uc < r {
             let wi = reflect(wo, wm);
             if wi.z * wo.z <= 0.0 {
                 return None;
             }
-            (wi, 1.0)
+            Some(LobeSample::Direction {
+                wi,
+                flags: BsdfFlags::REFLECTION | BsdfFlags::GLOSSY,
+                eta: 1.0,
+            })
         } else {
             let (wi, etap) = refract(wo, wm, eta)?;
             if wi.z * wo.z >= 0.0 || wi.z == 0.0 {
                 return None;
             }
-            (wi, etap)
-        };
-        let wi_world = self.frame.to_world(wi);
-        let (f, pdfs) = self.rough_all(wi_world);
-        let pdf = self.combined_pdf(pdfs);
-        if pdf <= 0.0 || !pdf.is_finite() {
-            return None;
+            Some(LobeSample::Direction {
+                wi,
+                flags: BsdfFlags::TRANSMISSION | BsdfFlags::GLOSSY,
+                eta: etap,
+            })
         }
-        Some(BsdfSample {
-            wi: wi_world,
-            f,
-            pdf,
-            specular: false,
-            eta: etap,
-        })
+    }
+}
+
+/// Radiance is compressed into the denser medium: it scales by 1/η'² on
+/// refraction. Importance is not (the adjoint BSDF has no such factor).
+fn radiance_scale(etap: f32, mode: TransportMode) -> f32 {
+    match mode {
+        TransportMode::Radiance => etap * etap,
+        TransportMode::Importance => 1.0,
     }
 }

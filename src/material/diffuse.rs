@@ -4,58 +4,46 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::Vec3;
 
-use super::{cosine_hemisphere, facing_frame, BsdfSample, ShadingGeometry};
-use crate::geometry::Frame;
+use super::bsdf::{to_side_of, BsdfEval, BsdfFlags, LobeSample, TransportMode};
+use super::cosine_hemisphere;
 use crate::spectrum::SampledSpectrum;
 
 #[derive(Clone, Copy, Debug)]
-pub struct DiffuseBsdf {
+pub struct DiffuseLobe {
     reflectance: SampledSpectrum,
-    frame: Frame,
-    /// Geometric normal on the side of `wo`: light never passes through.
-    ng: Vec3,
 }
 
-impl DiffuseBsdf {
-    pub fn new(reflectance: SampledSpectrum, geom: &ShadingGeometry) -> Self {
-        let (frame, ng) = facing_frame(geom);
+impl DiffuseLobe {
+    pub fn new(reflectance: SampledSpectrum) -> Self {
         Self {
             reflectance: reflectance.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE),
-            frame,
-            ng,
         }
     }
 
-    pub fn frame(&self) -> &Frame {
-        &self.frame
+    pub fn flags(&self) -> BsdfFlags {
+        BsdfFlags::REFLECTION | BsdfFlags::DIFFUSE
     }
 
-    pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
-        if wi.dot(self.ng) <= 0.0 || wi.dot(self.frame.n) <= 0.0 {
-            return SampledSpectrum::ZERO;
+    pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> BsdfEval {
+        if wo.z * wi.z <= 0.0 {
+            return BsdfEval::ZERO;
         }
-        self.reflectance * FRAC_1_PI
-    }
-
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        if wi.dot(self.ng) <= 0.0 {
-            return 0.0;
-        }
-        wi.dot(self.frame.n).max(0.0) * FRAC_1_PI
-    }
-
-    pub fn sample(&self, u: (f32, f32)) -> Option<BsdfSample> {
-        let local = cosine_hemisphere(u);
-        let wi = self.frame.to_world(local);
-        let pdf = self.pdf(wi);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
+        BsdfEval {
             f: self.reflectance * FRAC_1_PI,
-            pdf,
-            specular: false,
+            pdf: wi.z.abs() * FRAC_1_PI,
+        }
+    }
+
+    pub fn sample(
+        &self,
+        wo: Vec3,
+        _uc: f32,
+        u: (f32, f32),
+        _mode: TransportMode,
+    ) -> Option<LobeSample> {
+        Some(LobeSample::Direction {
+            wi: to_side_of(wo, cosine_hemisphere(u)),
+            flags: self.flags(),
             eta: 1.0,
         })
     }
@@ -64,7 +52,7 @@ impl DiffuseBsdf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::{Bsdf, Material};
+    use crate::material::{Material, ShadingGeometry, TransportMode};
     use crate::sampler::Sampler;
     use crate::spectrum::{SampledWavelengths, Spectrum};
 
@@ -78,6 +66,7 @@ mod tests {
             ns: Vec3::Z,
             wo: Vec3::new(0.3, 0.0, 0.9).normalize(),
         };
+        let mode = TransportMode::Radiance;
         let bsdf = m.bsdf(
             &geom,
             glam::Vec2::ZERO,
@@ -88,25 +77,29 @@ mod tests {
         let n = 100_000;
         let mut sum = 0.0f64;
         for _ in 0..n {
-            let smp = bsdf.sample(0.5, s.next_2d()).unwrap();
-            assert!((smp.pdf - bsdf.pdf(smp.wi)).abs() < 1e-5);
-            assert_eq!(smp.f, bsdf.eval(smp.wi));
+            let smp = bsdf.sample(geom.wo, 0.5, s.next_2d(), mode).unwrap();
+            assert!((smp.pdf - bsdf.pdf(geom.wo, smp.wi, mode)).abs() < 1e-5);
+            assert_eq!(smp.f, bsdf.f(geom.wo, smp.wi, mode));
             sum += (smp.f.x * bsdf.cos_theta(smp.wi) / smp.pdf) as f64;
         }
         assert!((sum / n as f64 - 0.7).abs() < 1e-4);
-        // Back side of the surface: the frame flips, reflection still works.
+        // Back side of the surface: both faces reflect, light never passes.
         let back = ShadingGeometry {
             wo: -geom.wo,
             ..geom
         };
-        let Bsdf::Diffuse(b) = m.bsdf(
+        let b = m.bsdf(
             &back,
             glam::Vec2::ZERO,
             &mut SampledWavelengths::sample_visible(0.5),
             SampledSpectrum::ONE,
-        ) else {
-            panic!("a diffuse material gives a diffuse BSDF");
-        };
-        assert!(b.eval(-Vec3::Z).x > 0.0 && b.eval(Vec3::Z).x == 0.0);
+        );
+        assert!(b.f(back.wo, -Vec3::Z, mode).x > 0.0);
+        assert_eq!(b.f(back.wo, Vec3::Z, mode).x, 0.0);
+        // The BSDF built for the front answers for the back too.
+        assert_eq!(
+            bsdf.f(back.wo, -Vec3::Z, mode),
+            b.f(back.wo, -Vec3::Z, mode)
+        );
     }
 }

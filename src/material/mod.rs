@@ -1,6 +1,9 @@
-//! Materials and the BSDFs they produce at a hit. Dispatch is an enum: the
-//! set of materials is closed and the hot path avoids virtual calls.
+//! Materials and the BSDFs they produce at a hit. A material is what a
+//! scene file describes (spectra, textures, roughness); at a hit it becomes
+//! a [`Bsdf`]: one lobe, evaluated at the path's wavelengths, in a shading
+//! frame. Dispatch is an enum: the hot path avoids virtual calls.
 
+pub mod bsdf;
 mod conductor;
 pub mod dielectric;
 mod diffuse;
@@ -12,11 +15,12 @@ pub mod pbr;
 
 use glam::{Vec2, Vec3, Vec4};
 
-pub use conductor::ConductorBsdf;
-pub use dielectric::DielectricBsdf;
-pub use diffuse::DiffuseBsdf;
+pub use bsdf::{Bsdf, BsdfEval, BsdfFlags, BsdfSample, Lobe, TransportMode};
+pub use conductor::ConductorLobe;
+pub use dielectric::DielectricLobe;
+pub use diffuse::DiffuseLobe;
 pub use ior::Ior;
-pub use pbr::PbrBsdf;
+pub use pbr::PbrLobe;
 
 use crate::geometry::Frame;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
@@ -88,27 +92,6 @@ pub enum Material {
     Pbr(Box<PbrMaterial>),
 }
 
-/// A BSDF sample: direction, value, density (solid angle).
-#[derive(Clone, Copy, Debug)]
-pub struct BsdfSample {
-    pub wi: Vec3,
-    pub f: SampledSpectrum,
-    pub pdf: f32,
-    /// A Dirac delta lobe: no light sampling or MIS applies to it.
-    pub specular: bool,
-    /// η' of a transmission (n_transmitted / n_incident); 1 for reflection.
-    pub eta: f32,
-}
-
-/// The BSDF at one hit, for one set of wavelengths, in world space.
-#[derive(Clone, Copy, Debug)]
-pub enum Bsdf {
-    Diffuse(DiffuseBsdf),
-    Conductor(ConductorBsdf),
-    Dielectric(DielectricBsdf),
-    Pbr(PbrBsdf),
-}
-
 /// Geometry of the hit a BSDF is built for.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingGeometry {
@@ -133,7 +116,12 @@ impl Material {
     ) -> Bsdf {
         match self {
             Material::Diffuse { reflectance } => {
-                Bsdf::Diffuse(DiffuseBsdf::new(reflectance.sample(uv, wl), geom))
+                let (frame, ng) = facing_frame(geom);
+                Bsdf::new(
+                    frame,
+                    ng,
+                    Lobe::Diffuse(DiffuseLobe::new(reflectance.sample(uv, wl))),
+                )
             }
             Material::Pbr(m) => {
                 let (mut metallic, mut roughness) = (m.metallic, m.roughness);
@@ -142,26 +130,32 @@ impl Material {
                     roughness *= v.y;
                     metallic *= v.z;
                 }
-                Bsdf::Pbr(PbrBsdf::new(
+                let (frame, ng) = facing_frame(geom);
+                let lobe = PbrLobe::new(
                     m.base_color.sample(uv, wl),
                     metallic,
                     microfacet::alpha_from_roughness(roughness),
                     m.ior,
-                    geom,
-                ))
+                );
+                Bsdf::new(frame, ng, Lobe::Pbr(lobe))
             }
-            Material::Conductor { eta, k, alpha } => Bsdf::Conductor(ConductorBsdf::new(
-                eta.sample(wl),
-                k.sample(wl),
-                *alpha,
-                geom,
-            )),
+            Material::Conductor { eta, k, alpha } => {
+                let (frame, ng) = facing_frame(geom);
+                let lobe = ConductorLobe::new(eta.sample(wl), k.sample(wl), *alpha);
+                Bsdf::new(frame, ng, Lobe::Conductor(lobe))
+            }
             Material::Dielectric { alpha, .. } => {
-                let bsdf = DielectricBsdf::new(eta, *alpha, geom, !wl.secondary_terminated());
-                if dielectric::is_dispersive(eta) && bsdf.is_specular() {
+                // The frame's +z points outside: `eta` is inside / outside.
+                let ns = if geom.ns.dot(geom.ng) < 0.0 {
+                    -geom.ns
+                } else {
+                    geom.ns
+                };
+                let lobe = DielectricLobe::new(eta, *alpha, !wl.secondary_terminated());
+                if dielectric::is_dispersive(eta) && lobe.is_specular() {
                     wl.terminate_secondary();
                 }
-                Bsdf::Dielectric(bsdf)
+                Bsdf::new(Frame::from_normal(ns), geom.ng, Lobe::Dielectric(lobe))
             }
         }
     }
@@ -209,62 +203,11 @@ impl Material {
     }
 }
 
-impl Bsdf {
-    /// f(wo, wi) for the path's `wo` (zero for Dirac lobes).
-    pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
-        match self {
-            Bsdf::Diffuse(b) => b.eval(wi),
-            Bsdf::Conductor(b) => b.eval(wi),
-            Bsdf::Dielectric(b) => b.eval(wi),
-            Bsdf::Pbr(b) => b.eval(wi),
-        }
-    }
-
-    /// Solid-angle density with which `sample` returns `wi`.
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        match self {
-            Bsdf::Diffuse(b) => b.pdf(wi),
-            Bsdf::Conductor(b) => b.pdf(wi),
-            Bsdf::Dielectric(b) => b.pdf(wi),
-            Bsdf::Pbr(b) => b.pdf(wi),
-        }
-    }
-
-    /// Samples a direction: `uc` chooses between lobes, `u` within one.
-    pub fn sample(&self, uc: f32, u: (f32, f32)) -> Option<BsdfSample> {
-        match self {
-            Bsdf::Diffuse(b) => b.sample(u),
-            Bsdf::Conductor(b) => b.sample(u),
-            Bsdf::Dielectric(b) => b.sample(uc, u),
-            Bsdf::Pbr(b) => b.sample(uc, u),
-        }
-    }
-
-    /// Only Dirac lobes: light sampling cannot help.
-    pub fn is_specular(&self) -> bool {
-        match self {
-            Bsdf::Diffuse(_) | Bsdf::Pbr(_) => false,
-            Bsdf::Conductor(b) => b.is_specular(),
-            Bsdf::Dielectric(b) => b.is_specular(),
-        }
-    }
-
-    /// |cos| between `wi` and the shading normal, for the rendering equation.
-    pub fn cos_theta(&self, wi: Vec3) -> f32 {
-        let n = match self {
-            Bsdf::Diffuse(b) => b.frame().n,
-            Bsdf::Conductor(b) => b.frame().n,
-            Bsdf::Dielectric(b) => b.frame().n,
-            Bsdf::Pbr(b) => b.frame().n,
-        };
-        n.dot(wi).abs()
-    }
-}
-
 /// A frame whose normal is the shading normal turned to the side of the
 /// surface that `wo` is on, plus the geometric normal turned the same way.
-/// Two-sided shading: both faces of a surface reflect alike.
-pub(crate) fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
+/// The reflection lobes are symmetric (both faces reflect alike), so the
+/// orientation only fixes which way the frame's axes point.
+fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
     let ng = if geom.ng.dot(geom.wo) < 0.0 {
         -geom.ng
     } else {
@@ -276,17 +219,6 @@ pub(crate) fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
         geom.ns
     };
     (Frame::from_normal(ns), ng)
-}
-
-/// `wo` (already local) and `wi` in `frame` when both lie above the
-/// surface, for both the geometric normal `ng` and the shading normal: the
-/// domain of the one-sided reflection lobes.
-pub(crate) fn reflected_pair(frame: &Frame, ng: Vec3, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
-    if wi.dot(ng) <= 0.0 {
-        return None;
-    }
-    let wi = frame.to_local(wi);
-    (wo.z > 0.0 && wi.z > 0.0).then_some((wo, wi))
 }
 
 /// Cosine-weighted direction on the +z hemisphere (Malley's method over a

@@ -21,9 +21,9 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::Vec3;
 
+use super::bsdf::{to_side_of, upper, BsdfEval, BsdfFlags, LobeSample, TransportMode};
+use super::cosine_hemisphere;
 use super::microfacet::{reflect, Ggx};
-use super::{cosine_hemisphere, facing_frame, reflected_pair, BsdfSample, ShadingGeometry};
-use crate::geometry::Frame;
 use crate::spectrum::SampledSpectrum;
 
 /// Smallest α used: below it the specular lobe would be a Dirac delta and a
@@ -31,16 +31,12 @@ use crate::spectrum::SampledSpectrum;
 pub const MIN_ALPHA: f32 = 2e-3;
 
 #[derive(Clone, Copy, Debug)]
-pub struct PbrBsdf {
-    frame: Frame,
-    ng: Vec3,
-    wo: Vec3,
+pub struct PbrLobe {
     base: SampledSpectrum,
     metallic: f32,
     f0: f32,
     ggx: Ggx,
-    /// Probability of sampling the specular lobe.
-    p_specular: f32,
+    mean_base: f32,
 }
 
 fn schlick_weight(cos: f32) -> f32 {
@@ -49,28 +45,37 @@ fn schlick_weight(cos: f32) -> f32 {
     m2 * m2 * m
 }
 
-impl PbrBsdf {
+impl PbrLobe {
     /// `base` in [0, 1] per wavelength, `metallic` in [0, 1], `ior` of the
     /// dielectric coat (glTF's default is 1.5).
-    pub fn new(
-        base: SampledSpectrum,
-        metallic: f32,
-        alpha: f32,
-        ior: f32,
-        geom: &ShadingGeometry,
-    ) -> Self {
-        let (frame, ng) = facing_frame(geom);
-        let wo = frame.to_local(geom.wo);
+    pub fn new(base: SampledSpectrum, metallic: f32, alpha: f32, ior: f32) -> Self {
         let base = base.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE);
-        let metallic = metallic.clamp(0.0, 1.0);
-        let f0 = ((ior - 1.0) / (ior + 1.0)).powi(2);
-        // Lobe weights as seen from ωo (macro-normal Fresnel estimate).
+        Self {
+            base,
+            metallic: metallic.clamp(0.0, 1.0),
+            f0: ((ior - 1.0) / (ior + 1.0)).powi(2),
+            ggx: Ggx::new(alpha.max(MIN_ALPHA)),
+            mean_base: base.element_sum() * 0.25,
+        }
+    }
+
+    pub fn flags(&self) -> BsdfFlags {
+        if self.metallic < 1.0 {
+            BsdfFlags::REFLECTION | BsdfFlags::DIFFUSE | BsdfFlags::GLOSSY
+        } else {
+            BsdfFlags::REFLECTION | BsdfFlags::GLOSSY
+        }
+    }
+
+    /// Probability of sampling the specular lobe, from the lobes' weights
+    /// as seen from `wo` (macro-normal Fresnel estimate).
+    fn p_specular(&self, wo: Vec3) -> f32 {
+        let (metallic, f0, mean_base) = (self.metallic, self.f0, self.mean_base);
         let w = schlick_weight(wo.z.abs());
-        let mean_base = base.element_sum() * 0.25;
         let spec = metallic * (mean_base + (1.0 - mean_base) * w)
             + (1.0 - metallic) * (f0 + (1.0 - f0) * w);
         let diff = (1.0 - metallic) * (1.0 - f0) * mean_base;
-        let p_specular = if spec + diff > 0.0 {
+        if spec + diff > 0.0 {
             // Never starve either lobe entirely while it contributes.
             let p = spec / (spec + diff);
             if diff > 0.0 {
@@ -80,31 +85,14 @@ impl PbrBsdf {
             }
         } else {
             1.0
-        };
-        Self {
-            frame,
-            ng,
-            wo,
-            base,
-            metallic,
-            f0,
-            ggx: Ggx::new(alpha.max(MIN_ALPHA)),
-            p_specular,
         }
     }
 
-    pub fn frame(&self) -> &Frame {
-        &self.frame
-    }
-
-    fn local_pair(&self, wi: Vec3) -> Option<(Vec3, Vec3)> {
-        reflected_pair(&self.frame, self.ng, self.wo, wi)
-    }
-
-    pub fn eval(&self, wi: Vec3) -> SampledSpectrum {
-        let Some((wo, wi)) = self.local_pair(wi) else {
-            return SampledSpectrum::ZERO;
-        };
+    pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> BsdfEval {
+        let (wo, wi) = upper(wo, wi);
+        if wi.z <= 0.0 {
+            return BsdfEval::ZERO;
+        }
         let wm = (wo + wi).normalize();
         let w = schlick_weight(wo.dot(wm).abs());
         let s = self.ggx.reflection(wo, wi, wm);
@@ -115,41 +103,33 @@ impl PbrBsdf {
             * (1.0 - schlick_weight(0.5 * wi.z))
             * (1.0 - schlick_weight(0.5 * wo.z));
         let dielectric = self.base * coupling + SampledSpectrum::splat(f_d * s);
-        dielectric * (1.0 - self.metallic) + f_c * (self.metallic * s)
-    }
-
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        let Some((wo, wi)) = self.local_pair(wi) else {
-            return 0.0;
-        };
-        let wm = (wo + wi).normalize();
-        let spec = self.ggx.reflection_pdf(wo, wm);
-        self.p_specular * spec + (1.0 - self.p_specular) * wi.z * FRAC_1_PI
-    }
-
-    pub fn sample(&self, uc: f32, u: (f32, f32)) -> Option<BsdfSample> {
-        let wo = self.wo;
-        if wo.z <= 0.0 {
-            return None;
+        let p_specular = self.p_specular(wo);
+        BsdfEval {
+            f: dielectric * (1.0 - self.metallic) + f_c * (self.metallic * s),
+            pdf: p_specular * self.ggx.reflection_pdf(wo, wm)
+                + (1.0 - p_specular) * wi.z * FRAC_1_PI,
         }
-        let wi_local = if uc < self.p_specular {
-            reflect(wo, self.ggx.sample_wm(wo, u))
+    }
+
+    pub fn sample(
+        &self,
+        wo: Vec3,
+        uc: f32,
+        u: (f32, f32),
+        _mode: TransportMode,
+    ) -> Option<LobeSample> {
+        let (up, _) = upper(wo, wo);
+        let (wi, lobe) = if uc < self.p_specular(up) {
+            (reflect(up, self.ggx.sample_wm(up, u)), BsdfFlags::GLOSSY)
         } else {
-            cosine_hemisphere(u)
+            (cosine_hemisphere(u), BsdfFlags::DIFFUSE)
         };
-        if wi_local.z <= 0.0 {
+        if wi.z <= 0.0 {
             return None;
         }
-        let wi = self.frame.to_world(wi_local);
-        let pdf = self.pdf(wi);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            f: self.eval(wi),
-            pdf,
-            specular: false,
+        Some(LobeSample::Direction {
+            wi: to_side_of(wo, wi),
+            flags: BsdfFlags::REFLECTION | lobe,
             eta: 1.0,
         })
     }
