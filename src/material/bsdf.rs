@@ -277,7 +277,7 @@ impl Bsdf {
             LobeSample::Direction { wi, flags, eta } => {
                 let wi = self.frame.to_world(wi);
                 let BsdfEval { f, pdf } = self.eval(wo, wi, mode);
-                if !(pdf > 0.0 && pdf.is_finite()) || !f.is_finite() {
+                if !(pdf > 0.0 && pdf.is_finite() && f.is_finite()) {
                     return None;
                 }
                 Some(BsdfSample {
