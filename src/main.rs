@@ -325,7 +325,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 scene.degenerate_triangles,
                 scene.bvh().node_count(),
                 human_bytes(scene.bvh().size_bytes()),
-                scene.lights.lights.len(),
+                scene.lights.len(),
                 scene.settings.width,
                 scene.settings.height
             );

@@ -239,11 +239,13 @@ fn gltf_materials_map_to_spectral_materials() {
     let (h, _) = at(6.0);
     let light = h.light.expect("the lamp is a light");
     let wl = wavelengths();
-    let front = s.lights.emitted(light, h.ng, h.ng, h.uv, &wl);
-    let back = s.lights.emitted(light, h.ng, -h.ng, h.uv, &wl);
+    let light = s.lights.get(light);
+    let front = light.l(h.uv, h.ng, &wl);
+    let back = light.l(h.uv, -h.ng, &wl);
     assert_eq!(front, back);
     assert!(front.x < front.w, "reddish: {front}");
-    let y = prism::spectrum::cie::spectrum_to_xyz(&s.lights.emitters[0].spectrum).y;
+    let prism::light::Light::Area(area) = light;
+    let y = prism::spectrum::cie::spectrum_to_xyz(&area.emitter().spectrum).y;
     let expected = 4.0 * (0.2126 + 0.7152 * 0.5 + 0.0722 * 0.25);
     assert!(
         (y - expected).abs() < 0.03 * expected,

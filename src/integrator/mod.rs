@@ -9,7 +9,6 @@ use glam::Vec4;
 
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::light::LightSet;
 use crate::material::{Bsdf, ShadingGeometry, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, Strategy, SurfaceHit};
@@ -77,6 +76,19 @@ pub fn radiance(
     loop {
         counters.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
+            // Escaped: only lights at infinity are seen.
+            for (i, light) in scene.lights.infinite() {
+                let le = light.le(ray.dir, wl);
+                let weight = if specular || strategy == Strategy::Bsdf {
+                    1.0
+                } else if strategy == Strategy::Nee {
+                    0.0
+                } else {
+                    let light_pdf = scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None);
+                    power_heuristic(prev_bsdf_pdf, light_pdf)
+                };
+                l += beta * le * weight;
+            }
             break;
         };
         let wo = -ray.dir;
@@ -119,17 +131,17 @@ pub fn radiance(
         }
         false_hits = 0;
 
-        if let Some(light) = hit.light {
-            let le = scene.lights.emitted(light, hit.ng, wo, hit.uv, wl);
+        if let Some(i) = hit.light {
+            let light = scene.lights.get(i);
+            let le = light.l(hit.uv, wo, wl);
             if le != SampledSpectrum::ZERO {
                 let weight = if specular || strategy == Strategy::Bsdf {
                     1.0
                 } else if strategy == Strategy::Nee {
                     0.0
                 } else {
-                    let area = scene.lights.lights[light].area;
-                    let cos = hit.ng.dot(wo).abs();
-                    let light_pdf = scene.lights.pmf(light) * hit.t * hit.t / (cos * area);
+                    let light_pdf =
+                        scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p));
                     power_heuristic(prev_bsdf_pdf, light_pdf)
                 };
                 l += beta * le * weight;
@@ -217,45 +229,39 @@ fn sample_direct(
     let Some((light, pmf)) = scene.lights.choose(u_light) else {
         return SampledSpectrum::ZERO;
     };
-    let area = scene.lights.lights[light].area;
-    let prim = scene.lights.lights[light].prim;
-    let lp = LightSet::sample_point(scene.triangle(prim), u_point);
-    let to_light = lp.p - hit.p;
-    let dist2 = to_light.length_squared();
-    if dist2 == 0.0 {
+    let light = scene.lights.get(light);
+    let Some(ls) = light.sample_li(hit.p, u_point, wl) else {
         return SampledSpectrum::ZERO;
-    }
-    let wi = to_light / dist2.sqrt();
-    let le = scene
-        .lights
-        .emitted(light, lp.n, -wi, scene.uv_at(prim, lp.b), wl);
-    let cos_light = lp.n.dot(wi).abs();
-    if le == SampledSpectrum::ZERO || cos_light == 0.0 {
-        return SampledSpectrum::ZERO;
-    }
+    };
+    let wi = ls.wi;
     let e = bsdf.eval(wo, wi, TransportMode::Radiance);
     let f = e.f * bsdf.cos_theta(wi);
     if f == SampledSpectrum::ZERO {
         return SampledSpectrum::ZERO;
     }
     let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, wi);
-    let target = offset_ray_origin(lp.p, lp.p_err, lp.n, -wi);
-    let shadow = Ray {
-        origin,
-        dir: target - origin,
-        t_max: 1.0 - SHADOW_EPSILON,
+    let shadow = match ls.point {
+        Some(lp) => {
+            let target = offset_ray_origin(lp.p, lp.p_err, lp.n, -wi);
+            Ray {
+                origin,
+                dir: target - origin,
+                t_max: 1.0 - SHADOW_EPSILON,
+            }
+        }
+        None => Ray::new(origin, wi),
     };
     counters.rays += 1;
     if scene.occluded(&shadow) {
         return SampledSpectrum::ZERO;
     }
-    let light_pdf = pmf * dist2 / (cos_light * area);
-    let weight = if scene.settings.strategy == Strategy::Mis {
+    let light_pdf = pmf * ls.pdf;
+    let weight = if scene.settings.strategy == Strategy::Mis && !light.is_delta() {
         power_heuristic(light_pdf, e.pdf)
     } else {
         1.0
     };
-    f * le * (weight / light_pdf)
+    f * ls.li * (weight / light_pdf)
 }
 
 #[cfg(test)]

@@ -1,7 +1,25 @@
-//! Area lights: emissive triangles, chosen for light sampling in proportion
-//! to their power and sampled uniformly by area.
+//! Lights: what emits, how to sample a point or a ray on it, and which one
+//! to pick. Every light is a variant of [`Light`]; integrators use only its
+//! methods and [`LightSet`], so adding a light (point, spot, environment)
+//! touches this folder alone.
+//!
+//! - `sample_li` / `pdf_li`: light arriving at a point (next-event
+//!   estimation), with its solid-angle density.
+//! - `l` (for surfaces a ray hits) and `le` (for rays that escape the
+//!   scene, which infinite lights answer).
+//! - `sample_le` / `pdf_le`: rays leaving the light, for paths that start
+//!   at lights (light tracing, bidirectional methods, photons).
+//! - `power`: for the selection distribution ([`PowerSelection`]).
+
+mod area;
+mod selection;
+
+use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
+
+pub use area::AreaLight;
+pub use selection::PowerSelection;
 
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 use crate::texture::TextureRef;
@@ -22,137 +40,194 @@ impl Emitter {
             None => m,
         }
     }
-}
 
-/// An emissive triangle.
-#[derive(Clone, Debug)]
-pub struct AreaLight {
-    /// Index of the triangle in the scene (build order).
-    pub prim: u32,
-    /// Index into [`LightSet::emitters`].
-    pub emission: u32,
-    pub two_sided: bool,
-    pub area: f32,
-}
-
-/// A point sampled on a light.
-#[derive(Clone, Copy, Debug)]
-pub struct LightPoint {
-    pub p: Vec3,
-    pub p_err: Vec3,
-    /// Unit normal of the light's front face.
-    pub n: Vec3,
-    /// Barycentric coordinates of `p` for vertices 1 and 2.
-    pub b: [f32; 2],
-}
-
-#[derive(Clone, Debug, Default)]
-pub struct LightSet {
-    pub lights: Vec<AreaLight>,
-    /// What each distinct emitter sends out.
-    pub emitters: Vec<Emitter>,
-    /// Cumulative selection probabilities (last = 1).
-    cdf: Vec<f32>,
-    /// Selection probability of each light.
-    pmf: Vec<f32>,
-}
-
-impl LightSet {
-    pub fn new(lights: Vec<AreaLight>, emitters: Vec<Emitter>) -> Self {
-        // Power ∝ area · (π per emitting side) · mean spectral radiance. The
-        // plain spectral mean (not luminance) keeps every light that emits
-        // anything selectable, also where the eye barely sees it. Textured
-        // emitters count with their texture's mean.
-        let mean: Vec<f64> = emitters.iter().map(Emitter::mean).collect();
-        let power: Vec<f64> = lights
-            .iter()
-            .map(|l| {
-                l.area as f64 * if l.two_sided { 2.0 } else { 1.0 } * mean[l.emission as usize]
-            })
-            .collect();
-        let total: f64 = power.iter().sum();
-        let (mut cdf, mut pmf) = (
-            Vec::with_capacity(lights.len()),
-            Vec::with_capacity(lights.len()),
-        );
-        let mut acc = 0.0;
-        for p in &power {
-            // Lights of zero power are never chosen (and never need to be).
-            let w = if total > 0.0 { p / total } else { 0.0 };
-            acc += w;
-            pmf.push(w as f32);
-            cdf.push(acc as f32);
-        }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
-        }
-        Self {
-            lights,
-            emitters,
-            cdf,
-            pmf,
-        }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.lights.is_empty() || self.cdf.is_empty() || self.pmf.iter().all(|&p| p == 0.0)
-    }
-
-    /// Chooses a light; returns its index and selection probability.
-    pub fn choose(&self, u: f32) -> Option<(usize, f32)> {
-        if self.is_empty() {
-            return None;
-        }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
-        let pmf = self.pmf[i];
-        (pmf > 0.0).then_some((i, pmf))
-    }
-
-    pub fn pmf(&self, light: usize) -> f32 {
-        self.pmf[light]
-    }
-
-    /// Radiance leaving light `light` at a point with front normal `n` and
-    /// texture coordinates `uv` towards direction `w` (unit, pointing away
-    /// from the light).
-    pub fn emitted(
-        &self,
-        light: usize,
-        n: Vec3,
-        w: Vec3,
-        uv: Vec2,
-        wl: &SampledWavelengths,
-    ) -> SampledSpectrum {
-        let l = &self.lights[light];
-        if !l.two_sided && n.dot(w) <= 0.0 {
-            return SampledSpectrum::ZERO;
-        }
-        let e = &self.emitters[l.emission as usize];
-        let le = e.spectrum.sample(wl);
-        match &e.texture {
+    /// Radiance at texture coordinates `uv`.
+    pub fn radiance(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
+        let le = self.spectrum.sample(wl);
+        match &self.texture {
             Some(t) => le * t.spectrum(uv, wl),
             None => le,
         }
     }
+}
 
-    /// A uniformly distributed point on light `light`'s triangle `tri`.
-    pub fn sample_point(tri: &[Vec3; 3], u: (f32, f32)) -> LightPoint {
-        let su = u.0.sqrt();
-        let b = [1.0 - su, u.1 * su];
-        let b2 = 1.0 - b[0] - b[1];
-        let p = tri[0] * b[0] + tri[1] * b[1] + tri[2] * b2;
-        let p_err = (tri[0] * b[0]).abs() + (tri[1] * b[1]).abs() + (tri[2] * b2).abs();
-        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
-        LightPoint {
-            p,
-            p_err: p_err * crate::geometry::gamma(6),
-            n,
-            b: [b[1], b2],
+/// A point on a light, with what a robust shadow ray needs.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPoint {
+    pub p: Vec3,
+    /// Bound on the absolute error of `p`.
+    pub p_err: Vec3,
+    /// Unit normal on the emitting side.
+    pub n: Vec3,
+}
+
+/// Light arriving at a point from a sampled point (or direction) of a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightLiSample {
+    /// Unit direction from the receiving point towards the light.
+    pub wi: Vec3,
+    pub li: SampledSpectrum,
+    /// Solid-angle density (without the light's selection probability).
+    pub pdf: f32,
+    /// The point on the light; None for a light at infinity.
+    pub point: Option<LightPoint>,
+}
+
+/// A ray leaving a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightLeSample {
+    pub point: LightPoint,
+    /// Unit direction of the ray.
+    pub dir: Vec3,
+    pub le: SampledSpectrum,
+    /// Density of the origin per unit area.
+    pub pdf_pos: f32,
+    /// Density of the direction per solid angle.
+    pub pdf_dir: f32,
+}
+
+/// Every kind of light. Adding one: a module with its type, a variant
+/// here, and one line in each `dispatch!` below.
+#[derive(Clone, Debug)]
+pub enum Light {
+    Area(AreaLight),
+}
+
+macro_rules! dispatch {
+    ($light:expr, $l:ident => $call:expr) => {
+        match $light {
+            Light::Area($l) => $call,
+        }
+    };
+}
+
+impl Light {
+    /// A Dirac delta in position or direction (point, spot, directional):
+    /// never hit by a ray, sampled by next-event estimation only.
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Light::Area(_) => false,
         }
     }
+
+    /// At infinity: seen by rays that escape the scene (`le`).
+    pub fn is_infinite(&self) -> bool {
+        match self {
+            Light::Area(_) => false,
+        }
+    }
+
+    pub fn power(&self) -> f64 {
+        dispatch!(self, l => l.power())
+    }
+
+    pub fn sample_li(
+        &self,
+        p_ref: Vec3,
+        u: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLiSample> {
+        dispatch!(self, l => l.sample_li(p_ref, u, wl))
+    }
+
+    /// Solid-angle density of `sample_li` from `p_ref` along `wi` (unit),
+    /// which meets the light at `p_light` (None: the ray escaped the scene,
+    /// as it does for lights at infinity).
+    pub fn pdf_li(&self, p_ref: Vec3, _wi: Vec3, p_light: Option<Vec3>) -> f32 {
+        match (self, p_light) {
+            (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
+            (Light::Area(_), None) => 0.0,
+        }
+    }
+
+    /// Radiance a surface light sends towards `w` (unit, away from the
+    /// light) from a point with texture coordinates `uv`.
+    pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Area(l) => l.l(uv, w, wl),
+        }
+    }
+
+    /// Radiance arriving along an escaped ray of direction `dir` from a
+    /// light at infinity; zero for the others.
+    pub fn le(&self, _dir: Vec3, _wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Area(_) => SampledSpectrum::ZERO,
+        }
+    }
+
+    pub fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        dispatch!(self, l => l.sample_le(u_pos, u_dir, wl))
+    }
+
+    /// (per-area, per-solid-angle) densities of `sample_le` for a ray
+    /// leaving in `dir`.
+    pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        dispatch!(self, l => l.pdf_le(dir))
+    }
+}
+
+/// The scene's lights and the distribution that picks one to sample.
+#[derive(Clone, Debug, Default)]
+pub struct LightSet {
+    lights: Vec<Light>,
+    selection: PowerSelection,
+    /// Indices of the lights at infinity.
+    infinite: Vec<usize>,
+}
+
+impl LightSet {
+    pub fn new(lights: Vec<Light>) -> Self {
+        // The plain spectral mean (not luminance) keeps every light that
+        // emits anything selectable, also where the eye barely sees it.
+        let power: Vec<f64> = lights.iter().map(Light::power).collect();
+        let infinite = (0..lights.len())
+            .filter(|&i| lights[i].is_infinite())
+            .collect();
+        Self {
+            selection: PowerSelection::new(&power),
+            lights,
+            infinite,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// No light emits anything.
+    pub fn is_empty(&self) -> bool {
+        self.selection.is_empty()
+    }
+
+    pub fn get(&self, light: usize) -> &Light {
+        &self.lights[light]
+    }
+
+    /// Chooses a light to sample; returns its index and probability.
+    pub fn choose(&self, u: f32) -> Option<(usize, f32)> {
+        self.selection.choose(u)
+    }
+
+    /// Probability that `choose` picks `light`.
+    pub fn pmf(&self, light: usize) -> f32 {
+        self.selection.pmf(light)
+    }
+
+    /// The lights at infinity, with their indices.
+    pub fn infinite(&self) -> impl Iterator<Item = (usize, &Light)> {
+        self.infinite.iter().map(|&i| (i, &self.lights[i]))
+    }
+}
+
+/// An area light from a triangle and an emitter (for tests and tools).
+pub fn area_light(tri: [Vec3; 3], emitter: Emitter, two_sided: bool) -> Light {
+    Light::Area(AreaLight::new(tri, None, Arc::new(emitter), two_sided))
 }
 
 #[cfg(test)]
@@ -166,29 +241,22 @@ mod tests {
         }
     }
 
+    fn unit_triangle(z: f32) -> [Vec3; 3] {
+        // Area 1.
+        [
+            Vec3::new(0.0, 0.0, z),
+            Vec3::new(2.0, 0.0, z),
+            Vec3::new(0.0, 1.0, z),
+        ]
+    }
+
     #[test]
     fn selection_follows_power() {
-        let lights = vec![
-            AreaLight {
-                prim: 0,
-                emission: 0,
-                two_sided: false,
-                area: 1.0,
-            },
-            AreaLight {
-                prim: 1,
-                emission: 1,
-                two_sided: false,
-                area: 1.0,
-            },
-            AreaLight {
-                prim: 2,
-                emission: 0,
-                two_sided: true,
-                area: 1.0,
-            },
-        ];
-        let set = LightSet::new(lights, vec![emitter(1.0), emitter(3.0)]);
+        let set = LightSet::new(vec![
+            area_light(unit_triangle(0.0), emitter(1.0), false),
+            area_light(unit_triangle(1.0), emitter(3.0), false),
+            area_light(unit_triangle(2.0), emitter(1.0), true),
+        ]);
         let pmf: Vec<f32> = (0..3).map(|i| set.pmf(i)).collect();
         assert!((pmf[0] - 1.0 / 6.0).abs() < 1e-6);
         assert!((pmf[1] - 3.0 / 6.0).abs() < 1e-6);
@@ -196,27 +264,25 @@ mod tests {
         assert_eq!(set.choose(0.0).unwrap().0, 0);
         assert_eq!(set.choose(0.3).unwrap().0, 1);
         assert_eq!(set.choose(0.99).unwrap().0, 2);
-        let dark = LightSet::new(
-            vec![AreaLight {
-                prim: 0,
-                emission: 0,
-                two_sided: false,
-                area: 1.0,
-            }],
-            vec![emitter(0.0)],
-        );
-        assert!(dark.choose(0.5).is_none());
+        let dark = LightSet::new(vec![area_light(unit_triangle(0.0), emitter(0.0), false)]);
+        assert!(dark.is_empty() && dark.choose(0.5).is_none());
     }
 
     #[test]
-    fn triangle_points_are_uniform() {
-        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    fn triangle_points_are_uniform_and_densities_agree() {
+        let light = area_light([Vec3::ZERO, Vec3::X, Vec3::Y], emitter(1.0), false);
+        let Light::Area(area) = &light;
+        let wl = SampledWavelengths::sample_visible(0.5);
+        let p_ref = Vec3::new(0.2, 0.3, 2.0);
         let mut s = crate::sampler::Sampler::new(1, 2);
         let n = 100_000;
         let mut mean = Vec3::ZERO;
         for _ in 0..n {
-            let p = LightSet::sample_point(&tri, s.next_2d()).p;
+            let smp = light.sample_li(p_ref, s.next_2d(), &wl).unwrap();
+            let p = smp.point.unwrap().p;
             assert!(p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 1.0 + 1e-6);
+            let pdf = light.pdf_li(p_ref, smp.wi, Some(p));
+            assert!((smp.pdf - pdf).abs() <= 1e-4 * pdf);
             mean += p / n as f32;
         }
         // Centroid (1/3, 1/3); standard error ≈ 0.24/√n.
@@ -224,5 +290,33 @@ mod tests {
             (mean - Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.0)).length() < 4e-3,
             "{mean}"
         );
+        assert_eq!(area.area(), 0.5);
+    }
+
+    #[test]
+    fn emitted_rays_are_cosine_distributed_on_emitting_sides() {
+        let wl = SampledWavelengths::sample_visible(0.5);
+        for two_sided in [false, true] {
+            let light = area_light(unit_triangle(0.0), emitter(2.0), two_sided);
+            let mut s = crate::sampler::Sampler::new(7, 2);
+            let n = 50_000;
+            let (mut back, mut cos_mean) = (0, 0.0f64);
+            for _ in 0..n {
+                let smp = light.sample_le(s.next_2d(), s.next_2d(), &wl).unwrap();
+                let (pdf_pos, pdf_dir) = light.pdf_le(smp.dir);
+                assert_eq!((pdf_pos, pdf_dir), (smp.pdf_pos, smp.pdf_dir));
+                assert_eq!(smp.le, SampledSpectrum::splat(2.0));
+                back += (smp.dir.z < 0.0) as u32;
+                cos_mean += smp.dir.z.abs() as f64 / n as f64;
+            }
+            // E[cos] = 2/3 under a cosine distribution.
+            assert!((cos_mean - 2.0 / 3.0).abs() < 5e-3, "{cos_mean}");
+            let frac = back as f64 / n as f64;
+            if two_sided {
+                assert!((frac - 0.5).abs() < 0.01, "{frac}");
+            } else {
+                assert_eq!(back, 0);
+            }
+        }
     }
 }

@@ -7,6 +7,8 @@ mod load;
 pub mod mesh;
 pub mod spectrum_spec;
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3, Vec4};
 
 pub use format::{Strategy, Tonemap};
@@ -15,7 +17,7 @@ pub use mesh::Mesh;
 
 use crate::camera::Camera;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
-use crate::light::{AreaLight, Emitter, LightSet};
+use crate::light::{AreaLight, Emitter, Light, LightSet};
 use crate::material::Material;
 use crate::spectrum::Spectrum;
 use crate::texture::TextureRef;
@@ -125,16 +127,15 @@ impl Scene {
         let mut shading = Vec::new();
         let mut emitters: Vec<Option<u32>> = Vec::new();
         let mut light_emitters = Vec::new();
-        let mut two_sided = Vec::new();
         let mut attributes = VertexAttributes::default();
         let mut degenerate = 0;
         for shape in shapes {
             let emission = shape.emission.map(|e| {
-                light_emitters.push(Emitter {
+                let emitter = Emitter {
                     spectrum: e.spectrum,
                     texture: e.texture,
-                });
-                two_sided.push(e.two_sided);
+                };
+                light_emitters.push((Arc::new(emitter), e.two_sided));
                 light_emitters.len() as u32 - 1
             });
             let mesh = shape.mesh;
@@ -188,19 +189,23 @@ impl Scene {
         for (prim, &original) in order.iter().enumerate() {
             if let Some(e) = emitters[original as usize] {
                 shading[prim].light = lights.len() as u32;
-                lights.push(AreaLight {
-                    prim: prim as u32,
-                    emission: e,
-                    two_sided: two_sided[e as usize],
-                    area: triangle::area(&triangles[prim]),
-                });
+                let info = &shading[prim];
+                let uvs = (info.attributes & HAS_UVS != 0)
+                    .then(|| info.vertices.map(|v| attributes.uvs[v as usize]));
+                let (emitter, two_sided) = &light_emitters[e as usize];
+                lights.push(Light::Area(AreaLight::new(
+                    triangles[prim],
+                    uvs,
+                    emitter.clone(),
+                    *two_sided,
+                )));
             }
         }
         Scene {
             camera,
             settings,
             materials,
-            lights: LightSet::new(lights, light_emitters),
+            lights: LightSet::new(lights),
             bvh,
             triangles,
             shading,

@@ -1,0 +1,172 @@
+//! Area lights: emissive triangles with a spectral radiance (times a colour
+//! texture where there is one), one- or two-sided, sampled uniformly by area.
+
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+use glam::{Vec2, Vec3};
+
+use super::{Emitter, LightLeSample, LightLiSample, LightPoint};
+use crate::geometry::gamma;
+use crate::geometry::Frame;
+use crate::material::cosine_hemisphere;
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+#[derive(Clone, Debug)]
+pub struct AreaLight {
+    tri: [Vec3; 3],
+    /// Texture coordinates of the vertices, if the mesh has them.
+    uvs: Option<[Vec2; 3]>,
+    /// Unit normal of the front face (counter-clockwise winding).
+    n: Vec3,
+    area: f32,
+    two_sided: bool,
+    emitter: Arc<Emitter>,
+}
+
+impl AreaLight {
+    pub fn new(
+        tri: [Vec3; 3],
+        uvs: Option<[Vec2; 3]>,
+        emitter: Arc<Emitter>,
+        two_sided: bool,
+    ) -> Self {
+        Self {
+            tri,
+            uvs,
+            n: (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize(),
+            area: crate::geometry::triangle::area(&tri),
+            two_sided,
+            emitter,
+        }
+    }
+
+    pub fn emitter(&self) -> &Emitter {
+        &self.emitter
+    }
+
+    pub fn area(&self) -> f32 {
+        self.area
+    }
+
+    /// Relative power for light selection: area · emitting sides · mean radiance.
+    pub fn power(&self) -> f64 {
+        self.area as f64 * if self.two_sided { 2.0 } else { 1.0 } * self.emitter.mean()
+    }
+
+    /// Radiance leaving a point with texture coordinates `uv` towards `w`
+    /// (unit, pointing away from the light).
+    pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        if !self.two_sided && self.n.dot(w) <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        self.emitter.radiance(uv, wl)
+    }
+
+    /// A uniformly distributed point on the triangle.
+    fn sample_point(&self, u: (f32, f32)) -> (LightPoint, Vec2) {
+        let tri = &self.tri;
+        let su = u.0.sqrt();
+        let b = [1.0 - su, u.1 * su];
+        let b2 = 1.0 - b[0] - b[1];
+        let p = tri[0] * b[0] + tri[1] * b[1] + tri[2] * b2;
+        let p_err = (tri[0] * b[0]).abs() + (tri[1] * b[1]).abs() + (tri[2] * b2).abs();
+        let uv = match &self.uvs {
+            Some(uv) => uv[0] * (1.0 - b[1] - b2) + uv[1] * b[1] + uv[2] * b2,
+            None => Vec2::ZERO,
+        };
+        let point = LightPoint {
+            p,
+            p_err: p_err * gamma(6),
+            n: self.n,
+        };
+        (point, uv)
+    }
+
+    pub fn sample_li(
+        &self,
+        p_ref: Vec3,
+        u: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLiSample> {
+        let (lp, uv) = self.sample_point(u);
+        let to_light = lp.p - p_ref;
+        let dist2 = to_light.length_squared();
+        if dist2 == 0.0 {
+            return None;
+        }
+        let wi = to_light / dist2.sqrt();
+        let li = self.l(uv, -wi, wl);
+        let cos_light = lp.n.dot(wi).abs();
+        if li == SampledSpectrum::ZERO || cos_light == 0.0 {
+            return None;
+        }
+        Some(LightLiSample {
+            wi,
+            li,
+            pdf: dist2 / (cos_light * self.area),
+            point: Some(lp),
+        })
+    }
+
+    /// Solid-angle density of `sample_li` from `p_ref` for the point
+    /// `p_light` on the light.
+    pub fn pdf_li(&self, p_ref: Vec3, p_light: Vec3) -> f32 {
+        let d = p_light - p_ref;
+        let dist2 = d.length_squared();
+        let cos = self.n.dot(d).abs() / dist2.sqrt();
+        if cos == 0.0 || dist2 == 0.0 {
+            return 0.0;
+        }
+        dist2 / (cos * self.area)
+    }
+
+    /// A ray leaving the light: a uniform point, a cosine-weighted
+    /// direction on an emitting side (either side, evenly, when two-sided).
+    pub fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        let (lp, uv) = self.sample_point(u_pos);
+        let (mut u0, mut side) = (u_dir.0, 1.0);
+        if self.two_sided {
+            // Reuse the first dimension: its lower half picks the back.
+            if u0 < 0.5 {
+                side = -1.0;
+                u0 *= 2.0;
+            } else {
+                u0 = 2.0 * u0 - 1.0;
+            }
+            u0 = u0.min(1.0 - f32::EPSILON / 2.0);
+        }
+        let n = self.n * side;
+        let local = cosine_hemisphere((u0, u_dir.1));
+        let dir = Frame::from_normal(n).to_world(local);
+        let le = self.l(uv, dir, wl);
+        let (pdf_pos, pdf_dir) = self.pdf_le(dir);
+        if le == SampledSpectrum::ZERO || pdf_dir == 0.0 {
+            return None;
+        }
+        Some(LightLeSample {
+            point: LightPoint { n, ..lp },
+            dir,
+            le,
+            pdf_pos,
+            pdf_dir,
+        })
+    }
+
+    /// Densities of `sample_le` for a ray leaving in `dir`: per area, per
+    /// solid angle.
+    pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        let cos = self.n.dot(dir);
+        let pdf_dir = if self.two_sided {
+            0.5 * cos.abs() / PI
+        } else {
+            cos.max(0.0) / PI
+        };
+        (1.0 / self.area, pdf_dir)
+    }
+}
