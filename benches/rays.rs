@@ -9,11 +9,12 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use glam::Vec3;
 use prism::camera::Camera;
+use prism::film::{FilmSettings, SpectralLayout, Tonemap};
 use prism::geometry::Ray;
-use prism::integrator::{radiance, PathCounters};
+use prism::integrator::{Integrator, PathCounters, PathTracer};
 use prism::material::Material;
 use prism::sampler::Sampler;
-use prism::scene::{load, Mesh, RenderSettings, Scene, ShapeInstance, Strategy, Tonemap};
+use prism::scene::{load, Mesh, Scene, ShapeInstance};
 use prism::spectrum::SampledWavelengths;
 use prism::spectrum::Spectrum;
 
@@ -75,27 +76,32 @@ fn terrain_mesh(n: u32) -> Mesh {
 
 fn terrain(mesh: Mesh) -> Scene {
     let (w, h) = (512, 512);
-    let settings = RenderSettings {
+    let film = FilmSettings {
         width: w,
         height: h,
         spp: 1,
-        max_depth: 4,
-        rr_depth: 3,
         seed: 0,
-        strategy: Strategy::Mis,
+        layout: SpectralLayout {
+            min: 380.0,
+            max: 780.0,
+            count: 1,
+        },
+        spectral_output: false,
         exposure: 0.0,
         tonemap: Tonemap::Clamp,
-        spectral_range: [380.0, 780.0],
-        spectral_buckets: 1,
-        spectral_output: false,
     };
+    let integrator = Integrator::Path(PathTracer {
+        max_depth: 4,
+        ..PathTracer::default()
+    });
     let camera = Camera::look_at(Vec3::new(0.0, 1.2, -1.8), Vec3::ZERO, Vec3::Y, 50.0, w, h);
     let material = Material::Diffuse {
         reflectance: Spectrum::Constant(0.5).into(),
     };
     Scene::build(
         camera,
-        settings,
+        film,
+        integrator,
         vec![material],
         vec![ShapeInstance {
             mesh,
@@ -211,6 +217,7 @@ fn bench(c: &mut Criterion) {
         });
     }
     group.throughput(Throughput::Elements(4096));
+    let Integrator::Path(path) = scene.integrator.clone();
     group.bench_function("paths (MIS, 4096 camera samples)", |b| {
         b.iter_batched(
             || (),
@@ -222,7 +229,7 @@ fn bench(c: &mut Criterion) {
                     let ray = scene
                         .camera
                         .generate_ray((i % 512) as f32 + 0.5, (i / 512) as f32 * 64.0);
-                    radiance(&scene, ray, &mut wl, &mut s, &mut counters);
+                    path.radiance(&scene, ray, &mut wl, &mut s, &mut counters);
                 }
                 counters.rays
             },

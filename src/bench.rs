@@ -101,17 +101,17 @@ pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec
     let path = opts.reference.clone().unwrap_or_else(|| {
         opts.out_dir.join(format!(
             "reference-{}-{}x{}-{}spp.exr",
-            opts.scene_hash, scene.settings.width, scene.settings.height, opts.reference_spp
+            opts.scene_hash, scene.film.width, scene.film.height, opts.reference_spp
         ))
     });
     if path.exists() {
         let (w, h, px) = read_rgb_exr(&path)?;
-        if (w, h) != (scene.settings.width, scene.settings.height) {
+        if (w, h) != (scene.film.width, scene.film.height) {
             bail!(
                 "the reference {} is {w}x{h}, the scene renders {}x{}",
                 path.display(),
-                scene.settings.width,
-                scene.settings.height
+                scene.film.width,
+                scene.film.height
             );
         }
         eprintln!("reference: {} (cached)", path.display());
@@ -125,14 +125,13 @@ pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec
     let (film, _) = render(
         scene,
         &RenderOptions {
-            spp: Some(opts.reference_spp),
             // A seed no rung uses: the reference's noise is independent.
-            seed: Some(0x5eed_0000_0000),
+            seed: 0x5eed_0000_0000,
             threads: opts.threads,
             progress: true,
-            ..Default::default()
+            ..RenderOptions::with_spp(scene, opts.reference_spp)
         },
-    );
+    )?;
     let rgb = film.linear_srgb();
     write_rgb_exr(&rgb, film.width, film.height, &path)?;
     Ok((path, rgb))
@@ -146,12 +145,11 @@ pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Res
         let (film, stats) = render(
             scene,
             &RenderOptions {
-                spp: Some(spp),
-                seed: Some(i as u64 + 1),
+                seed: i as u64 + 1,
                 threads: opts.threads,
-                ..Default::default()
+                ..RenderOptions::with_spp(scene, spp)
             },
-        );
+        )?;
         let (wall, cpu) = (wall0.elapsed(), process_cpu_time() - cpu0);
         if stats.non_finite > 0 {
             eprintln!(
@@ -194,6 +192,41 @@ pub fn write_csv(path: &Path, scene: &str, load: Duration, rungs: &[Rung]) -> Re
         );
     }
     std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// `prism bench`: loads the scene (at `resolution` if given), renders or
+/// reads the reference, runs the ladder and writes OUT/prism.csv.
+pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOptions) -> Result<()> {
+    if opts.ladder.is_empty() || opts.ladder.contains(&0) || opts.reference_spp == 0 {
+        bail!("sample counts must be at least 1");
+    }
+    if opts.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    let load_start = Instant::now();
+    let overrides = crate::scene::Overrides {
+        resolution,
+        ..Default::default()
+    };
+    let scene = crate::scene::load_with(scene_path, &overrides)?;
+    let load = load_start.elapsed();
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    std::fs::create_dir_all(&opts.out_dir)
+        .with_context(|| format!("cannot create {}", opts.out_dir.display()))?;
+    eprintln!(
+        "loaded {} in {:.3} s ({} triangles)",
+        scene_path.display(),
+        load.as_secs_f64(),
+        scene.triangle_count()
+    );
+    let (_, reference) = reference(&scene, opts)?;
+    let rungs = run_ladder(&scene, &reference, opts)?;
+    let csv = opts.out_dir.join("prism.csv");
+    write_csv(&csv, &scene_path.display().to_string(), load, &rungs)?;
+    eprintln!("wrote {}", csv.display());
+    Ok(())
 }
 
 #[cfg(test)]

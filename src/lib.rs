@@ -13,6 +13,7 @@ pub mod camera;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
+pub mod job;
 pub mod light;
 pub mod material;
 pub mod merge;

@@ -66,8 +66,13 @@ fn describe(path: &Path, image: &SpectralImage) -> Result<(Range<u32>, [u32; 4])
         .with_context(|| format!("{}: bad `{ATTR_REGION}`", path.display()))?;
     attr(ATTR_SCENE_HASH)?;
     attr(ATTR_SEED)?;
-    if !image.other.contains_key(SAMPLE_COUNT) {
-        bail!("{}: no `{SAMPLE_COUNT}` channel", path.display());
+    for channel in [SAMPLE_COUNT, "R", "G", "B"] {
+        if !image.other.contains_key(channel) {
+            bail!(
+                "{}: no `{channel}` channel: not a partial render of prism's",
+                path.display()
+            );
+        }
     }
     Ok((samples, region))
 }

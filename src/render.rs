@@ -10,31 +10,54 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
-use crate::film::{Film, FilmTile, SpectralLayout};
-use crate::integrator::{radiance, PathCounters};
+use crate::film::{Film, FilmTile};
+use crate::integrator::PathCounters;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::spectrum::SampledWavelengths;
 
 const TILE_SIZE: u32 = 16;
 
-#[derive(Clone, Debug, Default)]
+/// One render of a loaded scene: which samples, where, on how many threads.
+/// `RenderOptions::new` takes the scene file's defaults; a caller changes
+/// its options, never the scene.
+#[derive(Clone, Debug)]
 pub struct RenderOptions {
-    /// Samples per pixel; the scene's when None.
-    pub spp: Option<u32>,
-    /// Render exactly these sample indices of every pixel (instead of
-    /// 0..spp), for splitting a render across processes or machines.
-    pub samples: Option<Range<u32>>,
+    /// The sample indices taken in every pixel: 0..spp for a whole render,
+    /// a sub-range for a part of a render split across processes.
+    pub samples: Range<u32>,
+    /// Seed of every random decision.
+    pub seed: u64,
     /// Render only the pixels in [x0, x1) × [y0, y1); the others get no samples.
-    pub region: Option<[u32; 4]>,
-    /// Seed; the scene's when None.
-    pub seed: Option<u64>,
+    pub region: [u32; 4],
     /// Worker threads; all cores when None.
     pub threads: Option<usize>,
     /// Show a progress bar on the terminal.
     pub progress: bool,
     /// Set to stop early: finished samples are kept.
     pub cancel: Option<Arc<AtomicBool>>,
+}
+
+impl RenderOptions {
+    /// The whole film at the scene file's samples per pixel and seed.
+    pub fn new(scene: &Scene) -> Self {
+        let f = &scene.film;
+        Self {
+            samples: 0..f.spp,
+            seed: f.seed,
+            region: [0, 0, f.width, f.height],
+            threads: None,
+            progress: false,
+            cancel: None,
+        }
+    }
+
+    /// The same, with `spp` samples per pixel.
+    pub fn with_spp(scene: &Scene, spp: u32) -> Self {
+        Self {
+            samples: 0..spp,
+            ..Self::new(scene)
+        }
+    }
 }
 
 #[derive(Clone, Debug, Default)]
@@ -52,34 +75,48 @@ pub struct RenderStats {
     pub interrupted: bool,
 }
 
-/// Renders the scene. Deterministic: the result depends only on the scene,
-/// the seed and the samples taken, never on threads or timing.
-pub fn render(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats) {
-    let pool = {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(n) = options.threads {
-            b = b.num_threads(n);
-        }
-        b.build().expect("a thread pool")
-    };
-    pool.install(|| render_in_pool(scene, options))
+/// Why a render cannot run as asked.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("cannot start {threads} worker threads: {reason}")]
+    Threads { threads: usize, reason: String },
+    #[error(
+        "the {0} integrator adds light to every pixel: it renders the whole film, not a region"
+    )]
+    SplatRegion(&'static str),
 }
 
+/// Renders the scene. Deterministic: the result depends only on the scene,
+/// the seed and the samples taken, never on threads or timing.
+pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(Film, RenderStats), RenderError> {
+    let f = &scene.film;
+    if scene.integrator.splats() && options.region != [0, 0, f.width, f.height] {
+        return Err(RenderError::SplatRegion(scene.integrator.name()));
+    }
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = options.threads {
+        b = b.num_threads(n);
+    }
+    let pool = b.build().map_err(|e| RenderError::Threads {
+        threads: options.threads.unwrap_or(0),
+        reason: e.to_string(),
+    })?;
+    Ok(pool.install(|| render_in_pool(scene, options)))
+}
+
+/// Tiles rendered before their results are added to the film: bounds the
+/// memory that finished tiles hold (splats can be many) while keeping the
+/// order of additions fixed.
+const TILES_PER_BATCH: usize = 256;
+
 fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats) {
-    let s = &scene.settings;
-    let samples = options
-        .samples
-        .clone()
-        .unwrap_or(0..options.spp.unwrap_or(s.spp));
-    let seed = options.seed.unwrap_or(s.seed);
-    let [rx0, ry0, rx1, ry1] = options.region.unwrap_or([0, 0, s.width, s.height]);
-    let (rx1, ry1) = (rx1.min(s.width), ry1.min(s.height));
-    let layout = SpectralLayout {
-        min: s.spectral_range[0],
-        max: s.spectral_range[1],
-        count: s.spectral_buckets,
-    };
-    let mut film = Film::new(s.width, s.height, layout);
+    let f = &scene.film;
+    let samples = options.samples.clone();
+    let seed = options.seed;
+    let [rx0, ry0, rx1, ry1] = options.region;
+    let (rx1, ry1) = (rx1.min(f.width), ry1.min(f.height));
+    let layout = f.layout;
+    let mut film = Film::new(f.width, f.height, layout);
     let tiles: Vec<(u32, u32, u32, u32)> = (ry0..ry1)
         .step_by(TILE_SIZE as usize)
         .flat_map(|y| (rx0..rx1).step_by(TILE_SIZE as usize).map(move |x| (x, y)))
@@ -115,47 +152,57 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             .as_ref()
             .is_some_and(|c| c.load(Ordering::Relaxed))
     };
+    // A splatting integrator's pixels are normalised by their own sample
+    // counts, so every pixel must have the same: a pass it starts, it ends.
+    let whole_passes = scene.integrator.splats();
     // Passes of a sixteenth of the samples (at most 16 each) keep the progress
     // bar moving and bound how much work an interruption waits for.
     let pass = spp.div_ceil(16).clamp(1, 16);
     let mut first = samples.start;
     while first < samples.end && !cancelled() {
         let range = first..(first + pass).min(samples.end);
-        let results: Vec<FilmTile> = tiles
-            .par_iter()
-            .filter_map(|&(x0, y0, w, h)| {
-                if cancelled() {
-                    return None;
-                }
-                let mut tile = FilmTile::new(x0, y0, w, h, layout);
-                let mut counters = PathCounters::default();
-                let mut bad = 0;
-                for y in y0..y0 + h {
-                    for x in x0..x0 + w {
-                        for index in range.clone() {
-                            let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
-                            let [dx, dy, u_lambda, _] = sampler.next_4d();
-                            let mut wl = SampledWavelengths::sample_visible(u_lambda);
-                            let ray = scene.camera.generate_ray(x as f32 + dx, y as f32 + dy);
-                            let l = radiance(scene, ray, &mut wl, &mut sampler, &mut counters);
-                            if l.is_finite() {
-                                tile.add_sample(x, y, l, &wl);
-                            } else {
-                                bad += 1;
-                                tile.add_empty_sample(x, y);
+        for batch in tiles.chunks(TILES_PER_BATCH) {
+            let results: Vec<FilmTile> = batch
+                .par_iter()
+                .filter_map(|&(x0, y0, w, h)| {
+                    if cancelled() && !whole_passes {
+                        return None;
+                    }
+                    let mut tile = FilmTile::new(x0, y0, w, h, f.width, layout);
+                    let mut counters = PathCounters::default();
+                    let mut bad = 0;
+                    for y in y0..y0 + h {
+                        for x in x0..x0 + w {
+                            for index in range.clone() {
+                                let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
+                                let s = scene.integrator.sample(
+                                    scene,
+                                    x,
+                                    y,
+                                    &mut sampler,
+                                    &mut tile,
+                                    &mut counters,
+                                );
+                                if s.l.is_finite() {
+                                    tile.add_sample(x, y, s.l, &s.wl);
+                                } else {
+                                    bad += 1;
+                                    tile.add_empty_sample(x, y);
+                                }
                             }
                         }
                     }
-                }
-                rays.fetch_add(counters.rays, Ordering::Relaxed);
-                overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
-                non_finite.fetch_add(bad, Ordering::Relaxed);
-                bar.inc((w * h) as u64 * range.len() as u64);
-                Some(tile)
-            })
-            .collect();
-        for tile in &results {
-            film.add_tile(tile);
+                    bad += tile.non_finite_splats;
+                    rays.fetch_add(counters.rays, Ordering::Relaxed);
+                    overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
+                    non_finite.fetch_add(bad, Ordering::Relaxed);
+                    bar.inc((w * h) as u64 * range.len() as u64);
+                    Some(tile)
+                })
+                .collect();
+            for tile in &results {
+                film.add_tile(tile);
+            }
         }
         first = range.end;
     }

@@ -25,7 +25,7 @@ fn d65_lit_white_reflector_through_the_film() {
         max: 780.0,
         count: 40,
     };
-    let mut tile = FilmTile::new(0, 0, 1, 1, layout);
+    let mut tile = FilmTile::new(0, 0, 1, 1, 1, layout);
     let n = 400_000u64;
     let mut sq = DVec3::ZERO;
     for k in 0..n {

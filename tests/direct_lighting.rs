@@ -7,7 +7,6 @@ mod common;
 
 use glam::DVec3;
 use prism::geometry::Ray;
-use prism::integrator::{radiance, PathCounters};
 use prism::sampler::Sampler;
 use prism::spectrum::{cie, SampledWavelengths};
 
@@ -86,7 +85,7 @@ fn floor_radiance_matches_lambert_formula() {
                 let mut sampler = Sampler::for_sample(11, i as u32, 0, k);
                 let mut wl = SampledWavelengths::sample_visible(sampler.next_f32());
                 let ray = Ray::new(origin.as_vec3(), dir);
-                let l = radiance(&s, ray, &mut wl, &mut sampler, &mut PathCounters::default());
+                let l = common::path_radiance(&s, ray, &mut wl, &mut sampler);
                 let y = cie::sampled_to_xyz(l, &wl).y as f64;
                 sum += y;
                 sum_sq += y * y;

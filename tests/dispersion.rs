@@ -128,7 +128,7 @@ fn rendered_spectrum_runs_red_to_violet() {
         two_sided = true
         "#,
     );
-    let (film, _) = render(&s, &RenderOptions::default());
+    let (film, _) = render(&s, &RenderOptions::new(&s)).unwrap();
     // Mean wavelength seen by each row that sees the slit.
     let mut centroids = Vec::new();
     for y in 0..96 {

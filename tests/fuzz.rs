@@ -184,7 +184,7 @@ proptest! {
         match prism::scene::load_str(scene, dir.path()) {
             Ok(s) => {
                 // What loads also renders without a non-finite sample.
-                let (_, stats) = prism::render::render(&s, &prism::render::RenderOptions { threads: Some(1), ..Default::default() });
+                let (_, stats) = prism::render::render(&s, &prism::render::RenderOptions { threads: Some(1), ..prism::render::RenderOptions::new(&s) }).unwrap();
                 prop_assert_eq!(stats.non_finite, 0);
             }
             Err(e) => prop_assert!(e.message.contains("m.obj"), "{}", e.message),
@@ -249,9 +249,9 @@ fn glb_loads_or_fails_cleanly(glb: &[u8], camera: &str) -> Result<(), TestCaseEr
         Ok(s) => {
             let options = prism::render::RenderOptions {
                 threads: Some(1),
-                ..Default::default()
+                ..prism::render::RenderOptions::new(&s)
             };
-            let (_, stats) = prism::render::render(&s, &options);
+            let (_, stats) = prism::render::render(&s, &options).unwrap();
             prop_assert_eq!(stats.non_finite, 0);
         }
         Err(e) => prop_assert!(e.message.contains("m.glb"), "{}", e.message),

@@ -8,7 +8,6 @@ use common::{assert_blocks_agree, scene};
 use glam::Vec3;
 use prism::film::Film;
 use prism::geometry::Ray;
-use prism::integrator::{radiance, PathCounters};
 use prism::render::{render, RenderOptions, RenderStats};
 use prism::sampler::Sampler;
 use prism::scene::Scene;
@@ -21,9 +20,10 @@ fn render_checked(s: &Scene) -> (Film, RenderStats) {
         s,
         &RenderOptions {
             threads: Some(2),
-            ..Default::default()
+            ..RenderOptions::new(s)
         },
-    );
+    )
+    .unwrap();
     assert_eq!(stats.non_finite, 0, "non-finite samples");
     assert_eq!(stats.stack_overflows, 0, "IOR stack overflows");
     for y in 0..film.height {
@@ -235,12 +235,11 @@ fn tiny_bright_light_matches_its_closed_form() {
         let mut sampler = Sampler::for_sample(3, 0, 0, k);
         let mut wl = SampledWavelengths::sample_visible(sampler.next_f32());
         let origin = Vec3::new(0.0, 0.5, -1.0);
-        let l = radiance(
+        let l = common::path_radiance(
             &s,
             Ray::new(origin, (-origin).normalize()),
             &mut wl,
             &mut sampler,
-            &mut PathCounters::default(),
         );
         let y = cie::sampled_to_xyz(l, &wl).y as f64;
         assert!(y.is_finite());
@@ -300,13 +299,15 @@ fn deep_nesting_overflows_are_counted_not_a_panic() {
             2.0 - 0.15 * i as f64
         );
     }
+    let s = scene(&text);
     let (film, stats) = render(
-        &scene(&text),
+        &s,
         &RenderOptions {
             threads: Some(2),
-            ..Default::default()
+            ..RenderOptions::new(&s)
         },
-    );
+    )
+    .unwrap();
     assert!(
         stats.stack_overflows > 0,
         "ten nested media must overflow an eight-entry stack"

@@ -14,7 +14,7 @@ fn write_then_read_gives_identical_channels_and_attributes() {
         "resolution = [20, 12]\nspp = 4\nspectral_range = [400, 700]\nspectral_buckets = 30",
         "",
     );
-    let (film, _) = render(&scene, &RenderOptions::default());
+    let (film, _) = render(&scene, &RenderOptions::new(&scene)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("round.spectral.exr");
     spectral_exr::write(&film, &path, &[("prismSeed", "7".into())]).unwrap();

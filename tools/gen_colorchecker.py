@@ -47,6 +47,8 @@ def main():
         "[film]",
         "resolution = [300, 200]",
         "spp = 64",
+        "",
+        "[integrator]",
         "max_depth = 1",
         "",
         "[[shape]]   # the light: D65 from every direction",

@@ -5,9 +5,30 @@
 pub mod output;
 pub mod spectral_exr;
 
+pub use output::Tonemap;
+
 use glam::{DVec3, Vec3};
 
 use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths};
+
+/// What the scene file says about the image: its size, the sampling
+/// defaults of a render (`RenderOptions::new` takes them), the spectral
+/// buckets and how the PNG is made.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilmSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel of a render that does not choose its own.
+    pub spp: u32,
+    /// Seed of a render that does not choose its own.
+    pub seed: u64,
+    pub layout: SpectralLayout,
+    /// Write NAME.spectral.exr next to the RGB files.
+    pub spectral_output: bool,
+    /// Exposure of the PNG in stops (the EXR stays radiometric).
+    pub exposure: f32,
+    pub tonemap: Tonemap,
+}
 
 /// Equal-width wavelength buckets over [min, max] nm.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,11 +75,27 @@ pub struct FilmTile {
     /// in sample order. Sparse: a sample touches at most four buckets, and a
     /// film may have hundreds.
     pub spectral: Vec<(u32, u32, f32)>,
+    /// Contributions to any pixel of the film (splats), by film pixel
+    /// index, in the order they were made: XYZ, and spectral entries
+    /// (pixel, bucket, radiance per nm).
+    pub splat_xyz: Vec<(u32, Vec3)>,
+    pub splat_spectral: Vec<(u32, u32, f32)>,
+    /// Splats dropped because they were not finite.
+    pub non_finite_splats: u64,
+    film_width: u32,
     layout: SpectralLayout,
 }
 
 impl FilmTile {
-    pub fn new(x0: u32, y0: u32, width: u32, height: u32, layout: SpectralLayout) -> Self {
+    /// A `width` × `height` tile at (x0, y0) of a film `film_width` wide.
+    pub fn new(
+        x0: u32,
+        y0: u32,
+        width: u32,
+        height: u32,
+        film_width: u32,
+        layout: SpectralLayout,
+    ) -> Self {
         let n = (width * height) as usize;
         Self {
             x0,
@@ -67,7 +104,36 @@ impl FilmTile {
             height,
             pixels: vec![PixelSums::default(); n],
             spectral: Vec::new(),
+            splat_xyz: Vec::new(),
+            splat_spectral: Vec::new(),
+            non_finite_splats: 0,
+            film_width,
             layout,
+        }
+    }
+
+    /// Adds radiance `l` to the film pixel (x, y), which may lie outside
+    /// the tile, without counting a sample there: the pixel's value is its
+    /// sums over its own sample count, so a splatting integrator's splats
+    /// are already divided by nothing else.
+    pub fn add_splat(&mut self, x: u32, y: u32, l: SampledSpectrum, wl: &SampledWavelengths) {
+        if !l.is_finite() {
+            self.non_finite_splats += 1;
+            return;
+        }
+        if l == SampledSpectrum::ZERO {
+            return;
+        }
+        let i = y * self.film_width + x;
+        self.splat_xyz.push((i, cie::sampled_to_xyz(l, wl)));
+        let per_nm = 1.0 / (4.0 * self.layout.width());
+        for k in 0..4 {
+            if wl.pdf[k] > 0.0 {
+                if let Some(b) = self.layout.bucket(wl.lambda[k]) {
+                    self.splat_spectral
+                        .push((i, b as u32, l[k] / wl.pdf[k] * per_nm));
+                }
+            }
         }
     }
 
@@ -131,6 +197,12 @@ impl Film {
         let n = self.layout.count as usize;
         for &(i, bucket, v) in &tile.spectral {
             self.buckets[film_index(i) * n + bucket as usize] += v;
+        }
+        for &(i, xyz) in &tile.splat_xyz {
+            self.pixels[i as usize].xyz += xyz.as_dvec3();
+        }
+        for &(i, bucket, v) in &tile.splat_spectral {
+            self.buckets[i as usize * n + bucket as usize] += v;
         }
     }
 
@@ -215,7 +287,7 @@ mod tests {
             max: 830.0,
             count: 47,
         };
-        let mut tile = FilmTile::new(0, 0, 1, 1, layout);
+        let mut tile = FilmTile::new(0, 0, 1, 1, 1, layout);
         let mut wl = SampledWavelengths::sample_visible(0.4);
         wl.terminate_secondary();
         tile.add_sample(0, 0, SampledSpectrum::ONE, &wl);

@@ -8,8 +8,18 @@ use anyhow::{Context, Result};
 use glam::Vec3;
 
 use super::Film;
-use crate::scene::Tonemap;
 use crate::spectrum::cie::srgb_encode;
+
+/// How linear radiance becomes display values in the PNG.
+#[derive(Clone, Copy, Debug, Default, serde::Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Tonemap {
+    /// Clip linear values to [0, 1] before sRGB encoding.
+    #[default]
+    Clamp,
+    /// x / (1 + x) per channel: keeps highlights, compresses everything.
+    Reinhard,
+}
 
 /// Writes `path` through a temporary sibling and a rename.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {

@@ -1,22 +1,40 @@
-//! The path tracer: unidirectional paths from the camera with next-event
-//! estimation to area lights, combined with BSDF sampling by multiple
-//! importance sampling (power heuristic), and Russian roulette. Each path
-//! carries the stack of dielectric media it is inside.
+//! Integrators: how a sample of a pixel becomes a radiance estimate. Each
+//! integrator is a variant of [`Integrator`] that owns its parameters
+//! (parsed from the scene's `[integrator]` table by [`Integrator::from_spec`]).
+//!
+//! The render driver asks for one sample of a pixel at a time
+//! ([`Integrator::sample`]). An integrator returns what that sample
+//! measures for its own pixel and may also *splat*: add contributions to any
+//! pixel of the film tile it is given (light tracing connects to the camera
+//! wherever a light path lands). The driver keeps both deterministic for
+//! any thread count.
 
 pub mod ior_stack;
+mod path;
 
-use glam::Vec4;
+use serde::Deserialize;
 
-use crate::geometry::offset::offset_ray_origin;
-use crate::geometry::Ray;
-use crate::material::{Bsdf, ShadingGeometry, TransportMode};
+pub use path::PathTracer;
+
+use crate::film::FilmTile;
 use crate::sampler::Sampler;
-use crate::scene::{Scene, Strategy, SurfaceHit};
+use crate::scene::format::{IntegratorKind, IntegratorSpec};
+use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
-use ior_stack::{Crossing, IorStack, Medium};
 
-/// Shadow rays stop this fraction short of the (already offset) light point.
-const SHADOW_EPSILON: f32 = 1e-6;
+/// How the path tracer finds direct light. All converge to the same image;
+/// `Mis` has the least noise.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Strategy {
+    /// Light sampling and BSDF sampling, combined by MIS.
+    #[default]
+    Mis,
+    /// Light sampling only (next-event estimation).
+    Nee,
+    /// BSDF sampling only.
+    Bsdf,
+}
 
 /// Counts kept per path, summed by the renderer.
 #[derive(Clone, Copy, Debug, Default)]
@@ -27,15 +45,77 @@ pub struct PathCounters {
     pub stack_overflows: u64,
 }
 
-/// A path that crosses more false intersections than this in a row is
-/// ended (a pathological overlap of surfaces, never a real scene).
-const MAX_FALSE_INTERSECTIONS: u32 = 256;
+/// What one sample of a pixel measured, at its wavelengths.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSample {
+    pub l: SampledSpectrum,
+    pub wl: SampledWavelengths,
+}
 
-/// The index of refraction of a dielectric material at the path's wavelengths.
-fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
-    match scene.materials[material as usize].ior() {
-        Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
-        None => SampledSpectrum::ONE,
+/// Every integrator. Adding one: a module with its type (parameters as
+/// fields, a `sample` method), a variant here, its arm in `sample` and
+/// `splats`, and its parameters in `from_spec` (and `IntegratorKind`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Integrator {
+    Path(PathTracer),
+}
+
+impl Default for Integrator {
+    fn default() -> Self {
+        Integrator::Path(PathTracer::default())
+    }
+}
+
+impl Integrator {
+    /// From the scene file's `[integrator]` table; the error names the key.
+    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+        match spec.kind {
+            IntegratorKind::Path => {
+                let d = PathTracer::default();
+                Ok(Integrator::Path(PathTracer {
+                    max_depth: spec.max_depth.unwrap_or(d.max_depth),
+                    rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+                    strategy: spec.strategy.unwrap_or(d.strategy),
+                }))
+            }
+        }
+    }
+
+    /// The name the scene file and the command line use.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Integrator::Path(_) => "path",
+        }
+    }
+
+    /// Whether `sample` adds to pixels other than its own. Such renders
+    /// must cover the whole film with the same number of samples per pixel.
+    pub fn splats(&self) -> bool {
+        match self {
+            Integrator::Path(_) => false,
+        }
+    }
+
+    /// Sample `sampler` of pixel (x, y): what it measures there; splats go
+    /// to `tile`.
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        x: u32,
+        y: u32,
+        sampler: &mut Sampler,
+        _tile: &mut FilmTile,
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        match self {
+            Integrator::Path(p) => {
+                let [dx, dy, u_lambda, _] = sampler.next_4d();
+                let mut wl = SampledWavelengths::sample_visible(u_lambda);
+                let ray = scene.camera.generate_ray(x as f32 + dx, y as f32 + dy);
+                let l = p.radiance(scene, ray, &mut wl, sampler, counters);
+                PixelSample { l, wl }
+            }
+        }
     }
 }
 
@@ -50,218 +130,6 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     } else {
         a / (a + b)
     }
-}
-
-/// Radiance arriving along `ray` (unit direction) at the path's wavelengths.
-pub fn radiance(
-    scene: &Scene,
-    mut ray: Ray,
-    wl: &mut SampledWavelengths,
-    sampler: &mut Sampler,
-    counters: &mut PathCounters,
-) -> SampledSpectrum {
-    let settings = &scene.settings;
-    let strategy = settings.strategy;
-    let mut l = SampledSpectrum::ZERO;
-    let mut beta = SampledSpectrum::ONE;
-    // The camera ray sees emitters as a specular bounce would: no light sampling competes.
-    let mut specular = true;
-    let mut prev_bsdf_pdf = 0.0;
-    let mut depth = 0;
-    let mut stack = IorStack::default();
-    // Product of η'² over transmissions: radiance scales by 1/η'² entering a
-    // denser medium, which Russian roulette must not mistake for a dim path.
-    let mut eta_scale = 1.0f32;
-    let mut false_hits = 0;
-    loop {
-        counters.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
-            // Escaped: only lights at infinity are seen.
-            for (i, light) in scene.lights.infinite() {
-                let le = light.le(ray.dir, wl);
-                let weight = if specular || strategy == Strategy::Bsdf {
-                    1.0
-                } else if strategy == Strategy::Nee {
-                    0.0
-                } else {
-                    let light_pdf = scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None);
-                    power_heuristic(prev_bsdf_pdf, light_pdf)
-                };
-                l += beta * le * weight;
-            }
-            break;
-        };
-        let wo = -ray.dir;
-        let material = &scene.materials[hit.material as usize];
-
-        // Dielectrics: which media meet here, or is the surface not there?
-        let mut eta = SampledSpectrum::ONE;
-        let mut medium = None;
-        if material.ior().is_some() {
-            let m = Medium {
-                material: hit.material,
-                priority: material.priority(),
-            };
-            let entering = ray.dir.dot(hit.ng) < 0.0;
-            match stack.classify(m, entering) {
-                Crossing::False => {
-                    if entering {
-                        if !stack.push(m) {
-                            counters.stack_overflows += 1;
-                        }
-                    } else {
-                        stack.remove(m.material);
-                    }
-                    false_hits += 1;
-                    if false_hits > MAX_FALSE_INTERSECTIONS {
-                        break;
-                    }
-                    ray = Ray::new(
-                        offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
-                        ray.dir,
-                    );
-                    continue;
-                }
-                Crossing::Real { outside, inside } => {
-                    let n_out = outside.map_or(SampledSpectrum::ONE, |o| ior_at(scene, o, wl));
-                    eta = ior_at(scene, inside, wl) / n_out;
-                    medium = Some((m, entering));
-                }
-            }
-        }
-        false_hits = 0;
-
-        if let Some(i) = hit.light {
-            let light = scene.lights.get(i);
-            let le = light.l(hit.uv, wo, wl);
-            if le != SampledSpectrum::ZERO {
-                let weight = if specular || strategy == Strategy::Bsdf {
-                    1.0
-                } else if strategy == Strategy::Nee {
-                    0.0
-                } else {
-                    let light_pdf =
-                        scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p));
-                    power_heuristic(prev_bsdf_pdf, light_pdf)
-                };
-                l += beta * le * weight;
-            }
-        }
-
-        if depth == settings.max_depth {
-            break;
-        }
-        depth += 1;
-
-        let geom = ShadingGeometry {
-            ng: hit.ng,
-            ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
-            wo,
-        };
-        let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
-
-        if strategy != Strategy::Bsdf && !bsdf.is_specular() {
-            l += beta * sample_direct(scene, &hit, wo, &bsdf, wl, sampler, counters);
-        } else {
-            // Keep the dimensions of later bounces aligned across samples.
-            sampler.skip_4d();
-        }
-
-        // One 4D point per bounce: the BSDF's direction (2D), its lobe
-        // choice, and Russian roulette.
-        let [u0, u1, uc, u_rr] = sampler.next_4d();
-        let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Radiance) else {
-            break;
-        };
-        beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-        specular = bs.is_specular();
-        prev_bsdf_pdf = bs.pdf;
-        ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
-
-        // Transmission through a dielectric moves the path into or out of it.
-        if let Some((m, entering)) = medium {
-            if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
-                eta_scale *= bs.eta * bs.eta;
-                if entering {
-                    if !stack.push(m) {
-                        counters.stack_overflows += 1;
-                    }
-                } else {
-                    stack.remove(m.material);
-                }
-            }
-        }
-
-        // Russian roulette: end dim paths with probability 1 − max(β), and
-        // reweight the survivors so the estimate stays unbiased.
-        let u = u_rr;
-        let max_beta = beta.max_element();
-        let rr_beta = max_beta * eta_scale;
-        if depth >= settings.rr_depth && rr_beta < 1.0 {
-            let q = (1.0 - rr_beta).max(0.0);
-            if u < q {
-                break;
-            }
-            beta /= 1.0 - q;
-        }
-        if max_beta <= 0.0 {
-            break;
-        }
-    }
-    l
-}
-
-/// Next-event estimation: light arriving directly from a point sampled on
-/// a light, weighted against BSDF sampling when the strategy is MIS.
-fn sample_direct(
-    scene: &Scene,
-    hit: &SurfaceHit,
-    wo: glam::Vec3,
-    bsdf: &Bsdf,
-    wl: &SampledWavelengths,
-    sampler: &mut Sampler,
-    counters: &mut PathCounters,
-) -> SampledSpectrum {
-    // Draw the numbers whatever happens, so each path uses a fixed number
-    // of dimensions per bounce: the point on the light (2D), which light.
-    let [p0, p1, u_light, _] = sampler.next_4d();
-    let u_point = (p0, p1);
-    let Some((light, pmf)) = scene.lights.choose(u_light) else {
-        return SampledSpectrum::ZERO;
-    };
-    let light = scene.lights.get(light);
-    let Some(ls) = light.sample_li(hit.p, u_point, wl) else {
-        return SampledSpectrum::ZERO;
-    };
-    let wi = ls.wi;
-    let e = bsdf.eval(wo, wi, TransportMode::Radiance);
-    let f = e.f * bsdf.cos_theta(wi);
-    if f == SampledSpectrum::ZERO {
-        return SampledSpectrum::ZERO;
-    }
-    let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, wi);
-    let shadow = match ls.point {
-        Some(lp) => {
-            let target = offset_ray_origin(lp.p, lp.p_err, lp.n, -wi);
-            Ray {
-                origin,
-                dir: target - origin,
-                t_max: 1.0 - SHADOW_EPSILON,
-            }
-        }
-        None => Ray::new(origin, wi),
-    };
-    counters.rays += 1;
-    if scene.occluded(&shadow) {
-        return SampledSpectrum::ZERO;
-    }
-    let light_pdf = pmf * ls.pdf;
-    let weight = if scene.settings.strategy == Strategy::Mis && !light.is_delta() {
-        power_heuristic(light_pdf, e.pdf)
-    } else {
-        1.0
-    };
-    f * ls.li * (weight / light_pdf)
 }
 
 #[cfg(test)]

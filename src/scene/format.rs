@@ -7,6 +7,8 @@ use std::path::PathBuf;
 use serde::Deserialize;
 
 use super::spectrum_spec::{IorSpec, SpectrumSpec};
+use crate::film::Tonemap;
+use crate::integrator::Strategy;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -60,8 +62,8 @@ pub struct FilmSpec {
     pub resolution: [u32; 2],
     /// Samples per pixel.
     pub spp: u32,
-    /// Maximum number of bounces: 1 is direct lighting only.
-    pub max_depth: u32,
+    /// Former place of `integrator.max_depth`, still read (with a warning).
+    pub max_depth: Option<u32>,
     /// Seed of every random decision; the same seed gives the same image.
     pub seed: u64,
     /// Exposure in stops applied to the PNG (the EXR stays radiometric).
@@ -81,7 +83,7 @@ impl Default for FilmSpec {
         Self {
             resolution: [512, 512],
             spp: 64,
-            max_depth: 16,
+            max_depth: None,
             seed: 0,
             exposure: 0.0,
             tonemap: Tonemap::Clamp,
@@ -92,43 +94,26 @@ impl Default for FilmSpec {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Tonemap {
-    /// Clip linear values to [0, 1] before sRGB encoding.
-    #[default]
-    Clamp,
-    /// x / (1 + x) per channel: keeps highlights, compresses everything.
-    Reinhard,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+/// The `[integrator]` table: which integrator, and its parameters (each
+/// applies to the integrators that name it in README.md).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
-    /// How direct light is found: "mis" (both, combined), "nee" (light
-    /// sampling only) or "bsdf" (BSDF sampling only). All converge to the
-    /// same image; "mis" has the least noise.
-    pub strategy: Strategy,
-    /// Bounces before Russian roulette may end a path.
-    pub rr_depth: u32,
-}
-
-impl Default for IntegratorSpec {
-    fn default() -> Self {
-        Self {
-            strategy: Strategy::Mis,
-            rr_depth: 3,
-        }
-    }
+    #[serde(default, rename = "type")]
+    pub kind: IntegratorKind,
+    /// Most bounces: 1 is direct lighting only (default 16).
+    pub max_depth: Option<u32>,
+    /// Bounces before Russian roulette may end a path (default 3).
+    pub rr_depth: Option<u32>,
+    /// How the path tracer finds direct light: "mis" (default), "nee" or "bsdf".
+    pub strategy: Option<Strategy>,
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
-pub enum Strategy {
+pub enum IntegratorKind {
     #[default]
-    Mis,
-    Nee,
-    Bsdf,
+    Path,
 }
 
 #[derive(Debug, Deserialize)]

@@ -11,33 +11,17 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
-pub use format::{Strategy, Tonemap};
-pub use load::{check_film_size, check_spectral_layout, load, load_str, SceneError};
+pub use load::{load, load_str, load_with, Overrides, SceneError};
 pub use mesh::Mesh;
 
 use crate::camera::Camera;
+use crate::film::FilmSettings;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
+use crate::integrator::Integrator;
 use crate::light::{AreaLight, Emitter, Light, LightSet};
 use crate::material::Material;
 use crate::spectrum::Spectrum;
 use crate::texture::TextureRef;
-
-/// How to render: everything in a scene file that is not geometry.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderSettings {
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub max_depth: u32,
-    pub rr_depth: u32,
-    pub seed: u64,
-    pub strategy: Strategy,
-    pub exposure: f32,
-    pub tonemap: Tonemap,
-    pub spectral_range: [f32; 2],
-    pub spectral_buckets: u32,
-    pub spectral_output: bool,
-}
 
 /// Light emitted by a shape.
 #[derive(Clone, Debug)]
@@ -101,7 +85,8 @@ pub struct SurfaceHit {
 
 pub struct Scene {
     pub camera: Camera,
-    pub settings: RenderSettings,
+    pub film: FilmSettings,
+    pub integrator: Integrator,
     pub materials: Vec<Material>,
     pub lights: LightSet,
     bvh: Bvh,
@@ -119,7 +104,8 @@ impl Scene {
     /// BVH, stores triangles in its order and collects the area lights.
     pub fn build(
         camera: Camera,
-        settings: RenderSettings,
+        film: FilmSettings,
+        integrator: Integrator,
         materials: Vec<Material>,
         shapes: Vec<ShapeInstance>,
     ) -> Scene {
@@ -203,7 +189,8 @@ impl Scene {
         }
         Scene {
             camera,
-            settings,
+            film,
+            integrator,
             materials,
             lights: LightSet::new(lights),
             bvh,

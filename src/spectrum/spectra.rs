@@ -163,6 +163,17 @@ impl Spectrum {
         })
     }
 
+    /// A smooth spectrum of any magnitude through an RGB value (no
+    /// illuminant): optical constants given as colours.
+    pub fn rgb_unbounded(rgb: glam::Vec3) -> Spectrum {
+        let (sigmoid, scale) = super::rgb2spec::unbounded(rgb.max(glam::Vec3::ZERO));
+        Spectrum::Rgb(RgbSpectrum {
+            sigmoid,
+            scale,
+            illuminant: None,
+        })
+    }
+
     /// An emitted radiance for a linear sRGB value of any magnitude,
     /// relative to the sRGB white (D65), normalised so that rgb (1, 1, 1)
     /// has luminance 1.

@@ -7,8 +7,12 @@ pub mod assets;
 use std::path::Path;
 
 use prism::film::Film;
+use prism::geometry::Ray;
+use prism::integrator::{Integrator, PathCounters};
 use prism::render::{render, RenderOptions};
+use prism::sampler::Sampler;
 use prism::scene::{load_str, Scene};
+use prism::spectrum::{SampledSpectrum, SampledWavelengths};
 
 pub fn scene(text: &str) -> Scene {
     load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap_or_else(|e| panic!("{e}"))
@@ -37,12 +41,27 @@ pub fn render_film(scene: &Scene, threads: usize) -> Film {
         scene,
         &RenderOptions {
             threads: Some(threads),
-            ..Default::default()
+            ..RenderOptions::new(scene)
         },
-    );
+    )
+    .unwrap();
     assert_eq!(stats.non_finite, 0, "non-finite samples");
     assert!(!stats.interrupted);
     film
+}
+
+/// Radiance along one ray by the scene's path tracer.
+pub fn path_radiance(
+    scene: &Scene,
+    ray: Ray,
+    wl: &mut SampledWavelengths,
+    sampler: &mut Sampler,
+) -> SampledSpectrum {
+    match &scene.integrator {
+        Integrator::Path(p) => p.radiance(scene, ray, wl, sampler, &mut PathCounters::default()),
+        #[allow(unreachable_patterns)]
+        other => panic!("a path-traced scene, not {}", other.name()),
+    }
 }
 
 /// Mean luminance over a pixel rectangle and the variance of that mean.

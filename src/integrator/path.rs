@@ -1,0 +1,267 @@
+//! The path tracer: unidirectional paths from the camera with next-event
+//! estimation, combined with BSDF sampling by multiple importance sampling
+//! (power heuristic), and Russian roulette. Each path carries the stack of
+//! dielectric media it is inside.
+
+use glam::Vec4;
+
+use super::ior_stack::{Crossing, IorStack, Medium};
+use super::{power_heuristic, PathCounters, Strategy};
+use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::Ray;
+use crate::material::{Bsdf, ShadingGeometry, TransportMode};
+use crate::sampler::Sampler;
+use crate::scene::{Scene, SurfaceHit};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// Shadow rays stop this fraction short of the (already offset) light point.
+const SHADOW_EPSILON: f32 = 1e-6;
+
+/// A path that crosses more false intersections than this in a row is
+/// ended (a pathological overlap of surfaces, never a real scene).
+const MAX_FALSE_INTERSECTIONS: u32 = 256;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PathTracer {
+    /// Most bounces: 1 is direct lighting only.
+    pub max_depth: u32,
+    /// Bounces before Russian roulette may end a path.
+    pub rr_depth: u32,
+    /// How direct light is found.
+    pub strategy: Strategy,
+}
+
+impl Default for PathTracer {
+    fn default() -> Self {
+        Self {
+            max_depth: 16,
+            rr_depth: 3,
+            strategy: Strategy::Mis,
+        }
+    }
+}
+
+/// The index of refraction of a dielectric material at the path's wavelengths.
+pub(crate) fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
+    match scene.materials[material as usize].ior() {
+        Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
+        None => SampledSpectrum::ONE,
+    }
+}
+
+impl PathTracer {
+    /// Radiance arriving along `ray` (unit direction) at the path's wavelengths.
+    pub fn radiance(
+        &self,
+        scene: &Scene,
+        mut ray: Ray,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counters: &mut PathCounters,
+    ) -> SampledSpectrum {
+        let strategy = self.strategy;
+        let mut l = SampledSpectrum::ZERO;
+        let mut beta = SampledSpectrum::ONE;
+        // The camera ray sees emitters as a specular bounce would: no light sampling competes.
+        let mut specular = true;
+        let mut prev_bsdf_pdf = 0.0;
+        let mut depth = 0;
+        let mut stack = IorStack::default();
+        // Product of η'² over transmissions: radiance scales by 1/η'² entering a
+        // denser medium, which Russian roulette must not mistake for a dim path.
+        let mut eta_scale = 1.0f32;
+        let mut false_hits = 0;
+        loop {
+            counters.rays += 1;
+            let Some(hit) = scene.intersect(&ray) else {
+                // Escaped: only lights at infinity are seen.
+                for (i, light) in scene.lights.infinite() {
+                    let le = light.le(ray.dir, wl);
+                    let weight = if specular || strategy == Strategy::Bsdf {
+                        1.0
+                    } else if strategy == Strategy::Nee {
+                        0.0
+                    } else {
+                        let light_pdf =
+                            scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None);
+                        power_heuristic(prev_bsdf_pdf, light_pdf)
+                    };
+                    l += beta * le * weight;
+                }
+                break;
+            };
+            let wo = -ray.dir;
+            let material = &scene.materials[hit.material as usize];
+
+            // Dielectrics: which media meet here, or is the surface not there?
+            let mut eta = SampledSpectrum::ONE;
+            let mut medium = None;
+            if material.ior().is_some() {
+                let m = Medium {
+                    material: hit.material,
+                    priority: material.priority(),
+                };
+                let entering = ray.dir.dot(hit.ng) < 0.0;
+                match stack.classify(m, entering) {
+                    Crossing::False => {
+                        if entering {
+                            if !stack.push(m) {
+                                counters.stack_overflows += 1;
+                            }
+                        } else {
+                            stack.remove(m.material);
+                        }
+                        false_hits += 1;
+                        if false_hits > MAX_FALSE_INTERSECTIONS {
+                            break;
+                        }
+                        ray = Ray::new(
+                            offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
+                            ray.dir,
+                        );
+                        continue;
+                    }
+                    Crossing::Real { outside, inside } => {
+                        let n_out = outside.map_or(SampledSpectrum::ONE, |o| ior_at(scene, o, wl));
+                        eta = ior_at(scene, inside, wl) / n_out;
+                        medium = Some((m, entering));
+                    }
+                }
+            }
+            false_hits = 0;
+
+            if let Some(i) = hit.light {
+                let light = scene.lights.get(i);
+                let le = light.l(hit.uv, wo, wl);
+                if le != SampledSpectrum::ZERO {
+                    let weight = if specular || strategy == Strategy::Bsdf {
+                        1.0
+                    } else if strategy == Strategy::Nee {
+                        0.0
+                    } else {
+                        let light_pdf =
+                            scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p));
+                        power_heuristic(prev_bsdf_pdf, light_pdf)
+                    };
+                    l += beta * le * weight;
+                }
+            }
+
+            if depth == self.max_depth {
+                break;
+            }
+            depth += 1;
+
+            let geom = ShadingGeometry {
+                ng: hit.ng,
+                ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
+                wo,
+            };
+            let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
+
+            if strategy != Strategy::Bsdf && !bsdf.is_specular() {
+                l += beta * self.sample_direct(scene, &hit, wo, &bsdf, wl, sampler, counters);
+            } else {
+                // Keep the dimensions of later bounces aligned across samples.
+                sampler.skip_4d();
+            }
+
+            // One 4D point per bounce: the BSDF's direction (2D), its lobe
+            // choice, and Russian roulette.
+            let [u0, u1, uc, u_rr] = sampler.next_4d();
+            let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Radiance) else {
+                break;
+            };
+            beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+            specular = bs.is_specular();
+            prev_bsdf_pdf = bs.pdf;
+            ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
+
+            // Transmission through a dielectric moves the path into or out of it.
+            if let Some((m, entering)) = medium {
+                if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
+                    eta_scale *= bs.eta * bs.eta;
+                    if entering {
+                        if !stack.push(m) {
+                            counters.stack_overflows += 1;
+                        }
+                    } else {
+                        stack.remove(m.material);
+                    }
+                }
+            }
+
+            // Russian roulette: end dim paths with probability 1 − max(β), and
+            // reweight the survivors so the estimate stays unbiased.
+            let u = u_rr;
+            let max_beta = beta.max_element();
+            let rr_beta = max_beta * eta_scale;
+            if depth >= self.rr_depth && rr_beta < 1.0 {
+                let q = (1.0 - rr_beta).max(0.0);
+                if u < q {
+                    break;
+                }
+                beta /= 1.0 - q;
+            }
+            if max_beta <= 0.0 {
+                break;
+            }
+        }
+        l
+    }
+
+    /// Next-event estimation: light arriving directly from a point sampled on
+    /// a light, weighted against BSDF sampling when the strategy is MIS.
+    #[allow(clippy::too_many_arguments)]
+    fn sample_direct(
+        &self,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        wo: glam::Vec3,
+        bsdf: &Bsdf,
+        wl: &SampledWavelengths,
+        sampler: &mut Sampler,
+        counters: &mut PathCounters,
+    ) -> SampledSpectrum {
+        // Draw the numbers whatever happens, so each path uses a fixed number
+        // of dimensions per bounce: the point on the light (2D), which light.
+        let [p0, p1, u_light, _] = sampler.next_4d();
+        let u_point = (p0, p1);
+        let Some((light, pmf)) = scene.lights.choose(u_light) else {
+            return SampledSpectrum::ZERO;
+        };
+        let light = scene.lights.get(light);
+        let Some(ls) = light.sample_li(hit.p, u_point, wl) else {
+            return SampledSpectrum::ZERO;
+        };
+        let wi = ls.wi;
+        let e = bsdf.eval(wo, wi, TransportMode::Radiance);
+        let f = e.f * bsdf.cos_theta(wi);
+        if f == SampledSpectrum::ZERO {
+            return SampledSpectrum::ZERO;
+        }
+        let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, wi);
+        let shadow = match ls.point {
+            Some(lp) => {
+                let target = offset_ray_origin(lp.p, lp.p_err, lp.n, -wi);
+                Ray {
+                    origin,
+                    dir: target - origin,
+                    t_max: 1.0 - SHADOW_EPSILON,
+                }
+            }
+            None => Ray::new(origin, wi),
+        };
+        counters.rays += 1;
+        if scene.occluded(&shadow) {
+            return SampledSpectrum::ZERO;
+        }
+        let light_pdf = pmf * ls.pdf;
+        let weight = if self.strategy == Strategy::Mis && !light.is_delta() {
+            power_heuristic(light_pdf, e.pdf)
+        } else {
+            1.0
+        };
+        f * ls.li * (weight / light_pdf)
+    }
+}

@@ -1,0 +1,69 @@
+//! `prism info`: what an OpenEXR file holds.
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use crate::film::spectral_exr;
+
+/// The report of `prism info`.
+pub fn describe(file: &Path) -> Result<String> {
+    use std::fmt::Write;
+    let img = spectral_exr::read(file)?;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{}: {} x {} pixels",
+        file.display(),
+        img.width,
+        img.height
+    );
+    for (k, v) in &img.attributes {
+        let _ = writeln!(out, "  {k} = {v}");
+    }
+    let stats = |values: &[f32]| {
+        let finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
+        let mean = finite.iter().map(|&v| v as f64).sum::<f64>() / finite.len().max(1) as f64;
+        let min = finite.iter().copied().fold(f32::INFINITY, f32::min);
+        let max = finite.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        (min, max, mean, values.len() - finite.len())
+    };
+    if img.wavelengths.is_empty() {
+        let _ = writeln!(out, "no spectral channels");
+    } else {
+        let n = img.wavelengths.len();
+        let (first, last) = (img.wavelengths[0], img.wavelengths[n - 1]);
+        let spacing = if n > 1 {
+            (last - first) / (n - 1) as f64
+        } else {
+            0.0
+        };
+        let _ = writeln!(
+            out,
+            "spectral (emissive S0): {n} channels, centres {first:.3}-{last:.3} nm, spacing {spacing:.3} nm"
+        );
+        let _ = writeln!(
+            out,
+            "  {:>12}  {:>12}  {:>12}  {:>12}",
+            "nm", "min", "mean", "max"
+        );
+        let mut bad = 0;
+        for (lambda, plane) in img.wavelengths.iter().zip(&img.spectral) {
+            let (min, max, mean, non_finite) = stats(plane);
+            bad += non_finite;
+            let _ = writeln!(
+                out,
+                "  {lambda:>12.3}  {min:>12.6}  {mean:>12.6}  {max:>12.6}"
+            );
+        }
+        let _ = writeln!(out, "  non-finite spectral values: {bad}");
+    }
+    for (name, plane) in &img.other {
+        let (min, max, mean, non_finite) = stats(plane);
+        let _ = writeln!(
+            out,
+            "channel {name}: min {min:.6}, mean {mean:.6}, max {max:.6}, non-finite {non_finite}"
+        );
+    }
+    Ok(out)
+}

@@ -1,0 +1,63 @@
+//! `prism merge`: partial renders into one image and its files.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+
+use super::{check_writable, output_stem, suffixed};
+use crate::film::output::{write_rgb_exr, write_rgb_png};
+use crate::film::{spectral_exr, Tonemap};
+use crate::merge::{merge, ATTR_SAMPLES};
+
+pub struct MergeJob {
+    /// The partial renders (NAME.spectral.exr files).
+    pub parts: Vec<PathBuf>,
+    /// Output path without extension.
+    pub output: PathBuf,
+    /// Exposure of the PNG in stops.
+    pub exposure: f32,
+}
+
+/// Merges the parts and writes OUT.spectral.exr, OUT.exr and OUT.png; the
+/// report goes to stderr.
+pub fn merge_files(job: &MergeJob) -> Result<()> {
+    if !job.exposure.is_finite() {
+        anyhow::bail!("--exposure must be a finite number of stops");
+    }
+    let images = job
+        .parts
+        .iter()
+        .map(|p| Ok((p.clone(), spectral_exr::read(p)?)))
+        .collect::<Result<Vec<_>>>()?;
+    for (p, img) in &images {
+        if img.attributes.contains_key("prismInterrupted") {
+            eprintln!(
+                "warning: {} is an interrupted render: it holds fewer samples than its range",
+                p.display()
+            );
+        }
+    }
+    let merged = merge(&images)?;
+    let stem = output_stem(Path::new(""), Some(job.output.clone()));
+    check_writable(&stem)?;
+    let spectral = suffixed(&stem, "spectral.exr");
+    spectral_exr::write_image(&merged, &spectral)?;
+    // merge() refuses parts without R, G and B.
+    let (r, g, b) = (&merged.other["R"], &merged.other["G"], &merged.other["B"]);
+    let rgb: Vec<glam::Vec3> = (0..merged.width * merged.height)
+        .map(|i| glam::Vec3::new(r[i], g[i], b[i]))
+        .collect();
+    let (w, h) = (merged.width as u32, merged.height as u32);
+    let (exr, png) = (suffixed(&stem, "exr"), suffixed(&stem, "png"));
+    write_rgb_exr(&rgb, w, h, &exr)?;
+    write_rgb_png(&rgb, w, h, &png, job.exposure, Tonemap::Clamp)?;
+    eprintln!(
+        "merged {} parts (samples {}): wrote {}, {} and {}",
+        job.parts.len(),
+        merged.attributes[ATTR_SAMPLES],
+        spectral.display(),
+        exr.display(),
+        png.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,62 @@
+//! The command line's jobs as library calls: render a scene to files, merge
+//! partial renders, describe an EXR. `main.rs` parses flags and calls these.
+
+mod info;
+mod merge;
+mod render;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+
+pub use info::describe;
+pub use merge::{merge_files, MergeJob};
+pub use render::{render_files, RenderJob, RenderOutcome};
+
+/// Where NAME.exr and NAME.png go: `output` (extension dropped) or next to
+/// the scene.
+pub fn output_stem(scene: &Path, output: Option<PathBuf>) -> PathBuf {
+    match output {
+        Some(o) => match o.extension().and_then(|e| e.to_str()) {
+            Some("exr" | "png") => o.with_extension(""),
+            _ => o,
+        },
+        None => scene.with_extension(""),
+    }
+}
+
+/// `stem` + "." + `ext`, keeping any dots already in the stem (`out.part3`).
+pub fn suffixed(stem: &Path, ext: &str) -> PathBuf {
+    let mut s = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+/// A byte count for people: KiB, MiB or GiB.
+pub fn human_bytes(bytes: usize) -> String {
+    let b = bytes as f64;
+    if b < (1 << 20) as f64 {
+        format!("{:.1} KiB", b / 1024.0)
+    } else if b < (1 << 30) as f64 {
+        format!("{:.1} MiB", b / (1 << 20) as f64)
+    } else {
+        format!("{:.2} GiB", b / (1 << 30) as f64)
+    }
+}
+
+/// Fails early, before any rendering, if the output folder cannot take files.
+pub fn check_writable(stem: &Path) -> Result<()> {
+    let dir = match stem.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        bail!("output folder {} does not exist", dir.display());
+    }
+    let probe = dir.join(format!(".prism-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("cannot write to output folder {}", dir.display()))?;
+    let _ = std::fs::remove_file(probe);
+    Ok(())
+}

@@ -1,0 +1,160 @@
+//! `prism render`: load a scene (with the command line's overrides), render
+//! it, write NAME.exr, NAME.png and NAME.spectral.exr.
+
+use std::ops::Range;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+
+use super::{check_writable, human_bytes, output_stem, suffixed};
+use crate::film::{output, spectral_exr};
+use crate::integrator::ior_stack::CAPACITY;
+use crate::merge::{scene_hash, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
+use crate::render::{render, RenderOptions};
+use crate::scene::{self, Overrides};
+
+pub struct RenderJob {
+    pub scene: PathBuf,
+    /// Output path without extension; next to the scene when None.
+    pub output: Option<PathBuf>,
+    /// Values that replace the scene file's.
+    pub overrides: Overrides,
+    /// Samples per pixel (the scene's when None).
+    pub spp: Option<u32>,
+    /// Exactly these sample indices of every pixel, for `prism merge`.
+    pub samples: Option<Range<u32>>,
+    /// Only these pixels, X0,Y0,X1,Y1, for `prism merge`.
+    pub tile: Option<[u32; 4]>,
+    pub threads: Option<usize>,
+    pub seed: Option<u64>,
+    pub progress: bool,
+    /// Set (by a signal handler) to stop early and write what exists.
+    pub cancel: Arc<AtomicBool>,
+}
+
+/// How a render job ended (errors aside).
+pub struct RenderOutcome {
+    /// Stopped before every sample was taken; the files hold what was.
+    pub interrupted: bool,
+}
+
+/// Runs the job; progress and the report go to stderr.
+pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
+    if job.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    if job.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    let partial = job.samples.is_some() || job.tile.is_some();
+    if job.overrides.no_spectral && partial {
+        bail!("--samples and --tile write a partial spectral EXR for `prism merge`: drop --no-spectral");
+    }
+    let load_start = Instant::now();
+    let scene = scene::load_with(&job.scene, &job.overrides)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let film = &scene.film;
+    if let Some(t) = job.tile {
+        if t[2] > film.width || t[3] > film.height {
+            bail!(
+                "--tile {},{},{},{} reaches outside the {}x{} image",
+                t[0],
+                t[1],
+                t[2],
+                t[3],
+                film.width,
+                film.height
+            );
+        }
+    }
+    let mut options = RenderOptions::new(&scene);
+    if let Some(spp) = job.spp {
+        options.samples = 0..spp;
+    }
+    if let Some(s) = &job.samples {
+        options.samples = s.clone();
+    }
+    if let Some(seed) = job.seed {
+        options.seed = seed;
+    }
+    if let Some(t) = job.tile {
+        options.region = t;
+    }
+    options.threads = job.threads;
+    options.progress = job.progress;
+    options.cancel = Some(job.cancel.clone());
+
+    let stem = output_stem(&job.scene, job.output.clone());
+    check_writable(&stem)?;
+    eprintln!(
+        "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} emissive triangles, {}x{}, {} integrator",
+        job.scene.display(),
+        load_start.elapsed().as_secs_f64(),
+        scene.triangle_count(),
+        scene.degenerate_triangles,
+        scene.bvh().node_count(),
+        human_bytes(scene.bvh().size_bytes()),
+        scene.lights.len(),
+        film.width,
+        film.height,
+        scene.integrator.name()
+    );
+
+    let (result, stats) = render(&scene, &options)?;
+    let secs = stats.elapsed.as_secs_f64();
+    eprintln!(
+        "rendered {} samples in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}",
+        stats.samples,
+        secs,
+        stats.samples as f64 / secs / 1e6,
+        stats.rays as f64 / secs / 1e6,
+        if stats.non_finite > 0 {
+            format!(", {} non-finite samples dropped", stats.non_finite)
+        } else {
+            String::new()
+        }
+    );
+    if stats.stack_overflows > 0 {
+        eprintln!(
+            "warning: {} times a path was inside more than {CAPACITY} nested dielectrics; the extra media were ignored",
+            stats.stack_overflows,
+        );
+    }
+    if stats.interrupted {
+        eprintln!(
+            "interrupted: every pixel has at least {} samples",
+            result.min_samples()
+        );
+    }
+    let exr = suffixed(&stem, "exr");
+    let png = suffixed(&stem, "png");
+    output::write_exr(&result, &exr)?;
+    output::write_png(&result, &png, film.exposure, film.tonemap)?;
+    eprintln!("wrote {} and {}", exr.display(), png.display());
+    if film.spectral_output {
+        let spectral = suffixed(&stem, "spectral.exr");
+        let scene_bytes = std::fs::read(&job.scene).unwrap_or_default();
+        let samples = &options.samples;
+        let mut extra = vec![
+            ("prismScene", job.scene.display().to_string()),
+            (ATTR_SCENE_HASH, scene_hash(&scene_bytes)),
+            (ATTR_SEED, options.seed.to_string()),
+            (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
+            (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
+            ("prismIntegrator", scene.integrator.name().to_string()),
+        ];
+        if stats.interrupted {
+            extra.push(("prismInterrupted", "true".into()));
+        }
+        spectral_exr::write(&result, &spectral, &extra)?;
+        eprintln!("wrote {}", spectral.display());
+    }
+    Ok(RenderOutcome {
+        interrupted: stats.interrupted,
+    })
+}

@@ -1,0 +1,197 @@
+//! glTF materials → prism materials (see the module notes of `gltf`), and
+//! their textures.
+
+use glam::Vec3;
+use gltf::texture::{MagFilter, WrappingMode};
+
+use super::buffers::{percent_decode, read_uri};
+use super::Context;
+use crate::material::{Ior, Material, NormalMap, PbrMaterial, Reflectance};
+use crate::scene::import::AssetMaterial;
+use crate::scene::Emission;
+use crate::spectrum::Spectrum;
+use crate::texture::{Encoding, Filter, TextureRef, Wrap};
+
+fn wrap_mode(m: WrappingMode) -> Wrap {
+    match m {
+        WrappingMode::Repeat => Wrap::Repeat,
+        WrappingMode::ClampToEdge => Wrap::Clamp,
+        WrappingMode::MirroredRepeat => Wrap::Mirror,
+    }
+}
+
+impl Context<'_> {
+    /// The texture behind a material's texture slot; a missing or broken
+    /// image is a warning and the slot is left empty.
+    pub(super) fn texture(
+        &mut self,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        transform: Option<gltf::texture::TextureTransform>,
+        encoding: Encoding,
+        slot: &str,
+    ) -> Option<TextureRef> {
+        if tex_coord != 0 || transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(0) != 0 {
+            self.ignored
+                .insert(format!("texture coordinate sets other than 0 ({slot})"));
+        }
+        let sampler = texture.sampler();
+        let wrap = [wrap_mode(sampler.wrap_s()), wrap_mode(sampler.wrap_t())];
+        let filter = match sampler.mag_filter() {
+            Some(MagFilter::Nearest) => Filter::Nearest,
+            _ => Filter::Bilinear,
+        };
+        let image = texture.source();
+        let index = image.index();
+        let (buffers, base) = (self.buffers, self.base);
+        let key = match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                base.join(percent_decode(uri)).display().to_string()
+            }
+            _ => format!("{}#image{index}", self.file),
+        };
+        let result = self
+            .textures
+            .get(key, encoding, wrap, filter, || match image.source() {
+                gltf::image::Source::Uri { uri, .. } => read_uri(uri, base),
+                gltf::image::Source::View { view, .. } => {
+                    let data = &buffers[view.buffer().index()];
+                    view.offset()
+                        .checked_add(view.length())
+                        .and_then(|end| data.get(view.offset()..end))
+                        .map(<[u8]>::to_vec)
+                        .ok_or_else(|| "its buffer view lies outside the buffer".to_string())
+                }
+            });
+        match result {
+            Ok(t) => Some(TextureRef {
+                texture: t,
+                transform: transform.map(|t| {
+                    let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
+                    let (s, c) = r.sin_cos();
+                    // KHR_texture_transform: translation · rotation · scale.
+                    [c * sx, s * sy, ox, -s * sx, c * sy, oy]
+                }),
+            }),
+            Err(e) => {
+                self.warnings.push(format!(
+                    "{}: image {index} ({slot}): {e}; the material uses its factor alone",
+                    self.file
+                ));
+                None
+            }
+        }
+    }
+
+    pub(super) fn material(&mut self, m: &gltf::Material) -> AssetMaterial {
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        let base_color = Reflectance {
+            factor: Spectrum::rgb_reflectance(Vec3::new(r, g, b)),
+            texture: pbr.base_color_texture().and_then(|info| {
+                self.texture(
+                    info.texture(),
+                    info.tex_coord(),
+                    info.texture_transform(),
+                    Encoding::SrgbColour,
+                    "baseColorTexture",
+                )
+            }),
+        };
+        let metallic_roughness = pbr.metallic_roughness_texture().and_then(|info| {
+            self.texture(
+                info.texture(),
+                info.tex_coord(),
+                info.texture_transform(),
+                Encoding::Linear,
+                "metallicRoughnessTexture",
+            )
+        });
+        let normal_map = m.normal_texture().and_then(|n| {
+            let scale = n.scale();
+            self.texture(
+                n.texture(),
+                n.tex_coord(),
+                None,
+                Encoding::Linear,
+                "normalTexture",
+            )
+            .map(|texture| NormalMap { texture, scale })
+        });
+        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            self.ignored
+                .insert("alphaMode BLEND/MASK (surfaces are opaque)".into());
+        }
+        let ior = m
+            .ior()
+            .filter(|n| n.is_finite() && *n >= 1.0)
+            .unwrap_or(1.5);
+        let (metallic, roughness) = (
+            pbr.metallic_factor().clamp(0.0, 1.0),
+            pbr.roughness_factor().clamp(0.0, 1.0),
+        );
+        let transmission = m
+            .transmission()
+            .map_or(0.0, |t| {
+                if t.transmission_texture().is_some() {
+                    self.ignored.insert("transmissionTexture".into());
+                }
+                t.transmission_factor()
+            })
+            .clamp(0.0, 1.0);
+        let material = if transmission * (1.0 - metallic) >= 0.5 {
+            if base_color.texture.is_some() || Vec3::new(r, g, b) != Vec3::ONE {
+                self.ignored
+                    .insert("base colour tint of transmissive materials".into());
+            }
+            let dispersion = m
+                .extension_value("KHR_materials_dispersion")
+                .and_then(|v| v.get("dispersion"))
+                .and_then(|v| v.as_f64())
+                .unwrap_or(0.0) as f32;
+            let ior = if dispersion > 0.0 {
+                Ior::abbe(ior, 20.0 / dispersion)
+            } else {
+                Ior::Constant(ior)
+            };
+            Material::Dielectric {
+                ior,
+                alpha: crate::material::microfacet::alpha_from_roughness(roughness),
+                priority: 0,
+            }
+        } else {
+            Material::Pbr(Box::new(PbrMaterial {
+                base_color,
+                metallic,
+                roughness,
+                metallic_roughness,
+                ior,
+                normal_map,
+            }))
+        };
+        let strength = m.emissive_strength().unwrap_or(1.0).max(0.0);
+        let emissive = Vec3::from(m.emissive_factor()).max(Vec3::ZERO) * strength;
+        let emission = (emissive.max_element() > 0.0 && emissive.is_finite()).then(|| Emission {
+            spectrum: Spectrum::rgb_emission(emissive),
+            texture: m.emissive_texture().and_then(|info| {
+                self.texture(
+                    info.texture(),
+                    info.tex_coord(),
+                    info.texture_transform(),
+                    Encoding::SrgbColour,
+                    "emissiveTexture",
+                )
+            }),
+            two_sided: m.double_sided(),
+        });
+        AssetMaterial {
+            name,
+            material,
+            emission,
+        }
+    }
+}

@@ -1,0 +1,100 @@
+//! The `[film]` table: image size, sampling defaults, spectral buckets and
+//! PNG settings; and the `[integrator]` table.
+
+use super::Loader;
+use crate::film::{FilmSettings, SpectralLayout};
+use crate::integrator::Integrator;
+use crate::scene::format::SceneFile;
+use crate::scene::SceneError;
+use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
+
+/// Largest image side accepted.
+const MAX_RESOLUTION: u32 = 32_768;
+/// Largest film memory accepted (pixel sums and spectral buckets).
+const MAX_FILM_BYTES: u64 = 16 << 30;
+
+impl Loader {
+    pub(super) fn film(&self, file: &SceneFile) -> Result<FilmSettings, SceneError> {
+        let f = &file.film;
+        let [width, height] = f.resolution;
+        if width == 0 || height == 0 {
+            return Err(self.error(format!(
+                "`film.resolution` must be positive, found [{width}, {height}]"
+            )));
+        }
+        if f.spp == 0 {
+            return Err(self.error("`film.spp` must be at least 1"));
+        }
+        if !f.exposure.is_finite() {
+            return Err(self.error("`film.exposure` must be a finite number of stops"));
+        }
+        check_film_size(width, height, f.spectral_buckets).map_err(|e| self.error(e))?;
+        check_spectral_layout(f.spectral_range, f.spectral_buckets)
+            .map_err(|e| self.error(format!("`film.{e}")))?;
+        Ok(FilmSettings {
+            width,
+            height,
+            spp: f.spp,
+            seed: f.seed,
+            layout: SpectralLayout {
+                min: f.spectral_range[0],
+                max: f.spectral_range[1],
+                count: f.spectral_buckets,
+            },
+            spectral_output: f.spectral,
+            exposure: f.exposure,
+            tonemap: f.tonemap,
+        })
+    }
+
+    /// The integrator and its parameters. `film.max_depth`, where the
+    /// bounce limit used to be, is still read, with a warning.
+    pub(super) fn integrator(&self, file: &mut SceneFile) -> Result<Integrator, SceneError> {
+        if let Some(depth) = file.film.max_depth {
+            if file.integrator.max_depth.is_some() {
+                return Err(self.error(
+                    "`film.max_depth` and `integrator.max_depth` both given: keep `integrator.max_depth`",
+                ));
+            }
+            self.warn("`film.max_depth` has moved to `integrator.max_depth`");
+            file.integrator.max_depth = Some(depth);
+        }
+        Integrator::from_spec(&file.integrator).map_err(|e| self.error(e))
+    }
+}
+
+/// Checks that a film fits: at most 32768 pixels a side and 16 GiB of sums.
+pub fn check_film_size(width: u32, height: u32, buckets: u32) -> Result<(), String> {
+    if width > MAX_RESOLUTION || height > MAX_RESOLUTION {
+        return Err(format!(
+            "`film.resolution` [{width}, {height}] is larger than {MAX_RESOLUTION} pixels on a side"
+        ));
+    }
+    let film_bytes = width as u64 * height as u64 * (48 + 4 * buckets as u64);
+    if film_bytes > MAX_FILM_BYTES {
+        return Err(format!(
+            "the film ({width}x{height} pixels, {buckets} spectral buckets) would need {:.1} GiB: use fewer pixels or buckets",
+            film_bytes as f64 / (1u64 << 30) as f64
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a film's spectral bucket layout; the message starts with the key.
+pub fn check_spectral_layout(range: [f32; 2], buckets: u32) -> Result<(), String> {
+    let [lo, hi] = range;
+    if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lo)
+        || !(LAMBDA_MIN..=LAMBDA_MAX).contains(&hi)
+        || lo >= hi
+    {
+        return Err(format!(
+            "spectral_range` must be an increasing pair within [{LAMBDA_MIN}, {LAMBDA_MAX}] nm, found [{lo}, {hi}]"
+        ));
+    }
+    if buckets == 0 || buckets > 4096 {
+        return Err(format!(
+            "spectral_buckets` must be between 1 and 4096, found {buckets}"
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,300 @@
+//! Scene file → runtime [`Scene`]: parse, apply the command line's
+//! overrides, validate, resolve names, spectra and files. Every failure
+//! names the file and the key at fault. One submodule per part of the file.
+
+mod camera;
+mod film;
+mod materials;
+mod shapes;
+mod spectra;
+
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+use super::format::SceneFile;
+use super::import::{Asset, TextureCache};
+use super::Scene;
+use crate::film::Tonemap;
+use crate::integrator::Strategy;
+use crate::material::Material;
+use crate::spectrum::Spectrum;
+
+/// The largest vertex coordinate a scene may hold (see `Loader::place`).
+const MAX_COORDINATE: f32 = 1e12;
+
+/// A scene that could not be loaded: which file, and what is wrong.
+#[derive(Debug)]
+pub struct SceneError {
+    pub file: PathBuf,
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.file.display(), self.message)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Values that replace the scene file's before the scene is built (the
+/// command line's flags), so that they pass the same checks as the file's.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    pub resolution: Option<(u32, u32)>,
+    pub spectral_range: Option<[f32; 2]>,
+    pub spectral_buckets: Option<u32>,
+    pub no_spectral: bool,
+    pub exposure: Option<f32>,
+    pub tonemap: Option<Tonemap>,
+    pub strategy: Option<Strategy>,
+}
+
+impl Overrides {
+    /// Writes the overrides into the parsed file; returns the keys they set
+    /// with the flag that set each, for error messages.
+    fn apply(&self, file: &mut SceneFile) -> Vec<(&'static str, &'static str)> {
+        let mut set = Vec::new();
+        if let Some((w, h)) = self.resolution {
+            file.film.resolution = [w, h];
+            set.push(("film.resolution", "--resolution"));
+        }
+        if let Some(r) = self.spectral_range {
+            file.film.spectral_range = r;
+            set.push(("film.spectral_range", "--spectral-range"));
+        }
+        if let Some(n) = self.spectral_buckets {
+            file.film.spectral_buckets = n;
+            set.push(("film.spectral_buckets", "--spectral-buckets"));
+        }
+        if self.no_spectral {
+            file.film.spectral = false;
+        }
+        if let Some(e) = self.exposure {
+            file.film.exposure = e;
+            set.push(("film.exposure", "--exposure"));
+        }
+        if let Some(t) = self.tonemap {
+            file.film.tonemap = t;
+        }
+        if let Some(s) = self.strategy {
+            file.integrator.strategy = Some(s);
+            set.push(("integrator.strategy", "--strategy"));
+        }
+        set
+    }
+}
+
+/// Loads a scene file; relative paths in it are relative to its folder.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    load_with(path, &Overrides::default())
+}
+
+/// Loads a scene file with some of its values replaced.
+pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
+    let err = |message: String| SceneError {
+        file: path.to_path_buf(),
+        message,
+    };
+    if path.is_dir() {
+        return Err(err("is a directory, not a scene file".into()));
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| err(format!("cannot read the scene file: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides)
+}
+
+/// Loads a scene from TOML text; `base` is the folder relative paths start from.
+pub fn load_str(text: &str, base: &Path) -> Result<Scene, SceneError> {
+    Loader::new(PathBuf::from("<scene>"), base.to_path_buf()).load(text, &Overrides::default())
+}
+
+struct Loader {
+    scene_file: PathBuf,
+    base: PathBuf,
+    /// Images decoded so far, shared by every material that uses them.
+    textures: RefCell<TextureCache>,
+    /// OBJ and glTF files read so far: instances of one file read it once.
+    assets: RefCell<HashMap<PathBuf, Rc<Asset>>>,
+    warnings: RefCell<Vec<String>>,
+    /// Keys set by the command line, and the flag that set each.
+    overridden: RefCell<Vec<(&'static str, &'static str)>>,
+}
+
+/// Where an asset's materials went in the scene's list, per asset file.
+type AssetMaterialSlots = HashMap<(PathBuf, usize), u32>;
+
+impl Loader {
+    fn new(scene_file: PathBuf, base: PathBuf) -> Self {
+        Self {
+            scene_file,
+            base,
+            textures: RefCell::default(),
+            assets: RefCell::default(),
+            warnings: RefCell::default(),
+            overridden: RefCell::default(),
+        }
+    }
+
+    /// An error naming the scene file; a key that the command line set is
+    /// named with its flag.
+    fn error(&self, message: impl Into<String>) -> SceneError {
+        let mut message = message.into();
+        for (key, flag) in self.overridden.borrow().iter() {
+            if message.contains(&format!("`{key}`")) {
+                message = format!("{message} (set by {flag})");
+            }
+        }
+        SceneError {
+            file: self.scene_file.clone(),
+            message,
+        }
+    }
+
+    fn warn(&self, message: impl Into<String>) {
+        self.warnings.borrow_mut().push(message.into());
+    }
+
+    fn load(&self, text: &str, overrides: &Overrides) -> Result<Scene, SceneError> {
+        let value: toml::Table =
+            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
+        if let Some(key) = first_non_finite(&toml::Value::Table(value), "") {
+            return Err(self.error(format!(
+                "`{key}` is not a finite number; numbers in a scene must be finite"
+            )));
+        }
+        let mut file: SceneFile =
+            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
+        *self.overridden.borrow_mut() = overrides.apply(&mut file);
+
+        let film = self.film(&file)?;
+        let integrator = self.integrator(&mut file)?;
+        let camera = self.camera(&file, &film)?;
+
+        let mut material_index = BTreeMap::new();
+        let mut materials = Vec::new();
+        for (name, spec) in &file.materials {
+            let m = self.material(name, spec, &file)?;
+            material_index.insert(name.clone(), materials.len() as u32);
+            materials.push(m);
+        }
+        let default_material = materials.len() as u32;
+        materials.push(Material::Diffuse {
+            reflectance: Spectrum::Constant(0.5).into(),
+        });
+        let shapes = self.shapes(&file, &material_index, &mut materials, default_material)?;
+        let mut scene = Scene::build(camera, film, integrator, materials, shapes);
+        scene.warnings = self.warnings.take();
+        Ok(scene)
+    }
+}
+
+fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
+    let v: Vec<&str> = names.map(String::as_str).collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+/// Adds "did you mean `spp`?" to serde's "unknown field `samples`, expected
+/// one of ..." (and "unknown variant") when one of the expected names is close.
+fn with_suggestion(message: String) -> String {
+    let Some(start) = message
+        .find("unknown field `")
+        .or_else(|| message.find("unknown variant `"))
+    else {
+        return message;
+    };
+    let rest = &message[start..];
+    let Some(open) = rest.find('`') else {
+        return message;
+    };
+    let Some(close) = rest[open + 1..].find('`') else {
+        return message;
+    };
+    let unknown = &rest[open + 1..open + 1 + close];
+    let Some(expected) = rest.find("expected") else {
+        return message;
+    };
+    let candidates: Vec<&str> = rest[expected..]
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .take_while(|c| !c.contains('\n'))
+        .collect();
+    let best = candidates
+        .iter()
+        .map(|c| {
+            (
+                edit_distance(&unknown.to_lowercase(), &c.to_lowercase()),
+                *c,
+            )
+        })
+        .min();
+    match best {
+        Some((d, c)) if d > 0 && d <= 2.max(unknown.len() / 3) => {
+            format!("{message}\ndid you mean `{c}`?")
+        }
+        _ => message,
+    }
+}
+
+/// Levenshtein distance.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for j in 0..b.len() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + (ca != b[j]) as usize).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// The dotted key of the first NaN or infinite number in a TOML value.
+fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some(key.to_string()),
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
+            let sub = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            first_non_finite(v, &sub)
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| first_non_finite(v, &format!("{key}[{i}]"))),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suggestions_for_near_misses_only() {
+        let m = "TOML parse error at line 5, column 1\n  |\n5 | spq = 4\n  | ^^^\nunknown field `spq`, expected one of `resolution`, `spp`, `max_depth`\n".to_string();
+        assert!(with_suggestion(m).ends_with("did you mean `spp`?"));
+        let m = "unknown field `zzzzzz`, expected one of `resolution`, `spp`".to_string();
+        assert!(!with_suggestion(m).contains("did you mean"));
+        let m =
+            "unknown variant `dielectirc`, expected one of `diffuse`, `conductor`, `dielectric`"
+                .to_string();
+        assert!(with_suggestion(m).ends_with("did you mean `dielectric`?"));
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+    }
+}

@@ -1,0 +1,181 @@
+//! Spectra: named (the scene's own or built-in illuminants), constants,
+//! tables, CSV files, blackbodies and RGB, each checked for its role.
+
+use glam::Vec3;
+
+use super::Loader;
+use crate::scene::format::SceneFile;
+use crate::scene::spectrum_spec::SpectrumSpec;
+use crate::scene::SceneError;
+use crate::spectrum::{cie, csv, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN};
+
+/// Which physical quantity a spectrum stands for: it decides how RGB is
+/// upsampled and which values are allowed.
+#[derive(Clone, Copy, PartialEq)]
+pub(super) enum Role {
+    /// In [0, 1]: reflectances, transmittances.
+    Reflectance,
+    /// A radiance: illuminant names and blackbodies are normalised to
+    /// luminance 1, RGB is relative to the sRGB white (D65).
+    Emission,
+    /// Any non-negative optical constant (a metal's η and k, an index of
+    /// refraction): taken as given, never normalised, no illuminants.
+    Unbounded,
+}
+
+impl Loader {
+    pub(super) fn spectrum(
+        &self,
+        spec: &SpectrumSpec,
+        role: Role,
+        file: &SceneFile,
+        key: &str,
+    ) -> Result<Spectrum, SceneError> {
+        let spectrum = match spec {
+            SpectrumSpec::Named(name) => match file.spectra.get(name) {
+                Some(SpectrumSpec::Named(inner)) => self.builtin(inner, role, key)?,
+                Some(defined) => self.spectrum(defined, role, file, &format!("spectra.{name}"))?,
+                None => self.builtin(name, role, key)?,
+            },
+            SpectrumSpec::Constant(c) => Spectrum::Constant(*c),
+            SpectrumSpec::Table(rows) => {
+                let (l, v): (Vec<f32>, Vec<f32>) = rows.iter().map(|r| (r[0], r[1])).unzip();
+                self.table(l, v, key)?
+            }
+            SpectrumSpec::File { path, scale } => {
+                let full = self.base.join(path);
+                let text = std::fs::read_to_string(&full).map_err(|e| {
+                    self.error(format!(
+                        "`{key}`: cannot read spectrum file {}: {e}",
+                        full.display()
+                    ))
+                })?;
+                let t = csv::parse(&text)
+                    .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
+                Spectrum::Table(TabulatedSpectrum::new(t.wavelengths, t.columns[0].clone()))
+                    .scaled(*scale)
+            }
+            SpectrumSpec::Blackbody { kelvin, scale } => {
+                if role == Role::Unbounded {
+                    return Err(self.error(format!(
+                        "`{key}`: a blackbody is an emission spectrum, not an optical constant"
+                    )));
+                }
+                if !(*kelvin > 0.0) {
+                    return Err(
+                        self.error(format!("`{key}`: blackbody temperature must be positive"))
+                    );
+                }
+                normalised(Spectrum::Blackbody {
+                    kelvin: *kelvin,
+                    scale: 1.0,
+                })
+                .scaled(*scale)
+            }
+            SpectrumSpec::Rgb { rgb, scale } => {
+                let rgb = Vec3::from(*rgb);
+                if rgb.min_element() < 0.0 {
+                    return Err(self.error(format!("`{key}`: RGB components must not be negative")));
+                }
+                match role {
+                    Role::Reflectance => {
+                        if rgb.max_element() > 1.0 {
+                            return Err(self
+                                .error(format!("`{key}`: a reflectance RGB must lie in [0, 1]")));
+                        }
+                        Spectrum::rgb_reflectance(rgb).scaled(*scale)
+                    }
+                    Role::Emission => Spectrum::rgb_emission(rgb).scaled(*scale),
+                    Role::Unbounded => Spectrum::rgb_unbounded(rgb).scaled(*scale),
+                }
+            }
+        };
+        self.check_range(&spectrum, role, key)?;
+        Ok(spectrum)
+    }
+    /// A built-in illuminant, normalised to luminance Y = 1.
+    pub(super) fn builtin(
+        &self,
+        name: &str,
+        role: Role,
+        key: &str,
+    ) -> Result<Spectrum, SceneError> {
+        match cie::illuminant(name) {
+            Some(t) if role == Role::Emission => Ok(normalised(Spectrum::Table(t.clone()))),
+            Some(_) => Err(self.error(format!(
+                "`{key}`: `{name}` is an illuminant, not {}",
+                if role == Role::Reflectance {
+                    "a reflectance"
+                } else {
+                    "an optical constant (η, k or an index of refraction)"
+                }
+            ))),
+            None => Err(self.error(format!(
+                "`{key}`: unknown spectrum `{name}` (built-in: {}; or define it under [spectra])",
+                cie::ILLUMINANT_NAMES.join(", ")
+            ))),
+        }
+    }
+    pub(super) fn table(
+        &self,
+        l: Vec<f32>,
+        v: Vec<f32>,
+        key: &str,
+    ) -> Result<Spectrum, SceneError> {
+        if l.len() < 2 {
+            return Err(self.error(format!(
+                "`{key}`: a spectrum table needs at least two [nm, value] rows"
+            )));
+        }
+        if let Some(w) = l.windows(2).find(|w| !(w[0] < w[1])) {
+            return Err(self.error(format!(
+                "`{key}`: wavelengths must increase ({} nm then {} nm)",
+                w[0], w[1]
+            )));
+        }
+        if l[0] <= 0.0 {
+            return Err(self.error(format!("`{key}`: wavelengths must be positive")));
+        }
+        Ok(Spectrum::Table(TabulatedSpectrum::new(l, v)))
+    }
+    pub(super) fn check_range(
+        &self,
+        s: &Spectrum,
+        role: Role,
+        key: &str,
+    ) -> Result<(), SceneError> {
+        let (lo, hi) = sampled_range(s);
+        if lo < 0.0 {
+            return Err(self.error(format!("`{key}`: spectrum values must not be negative")));
+        }
+        if role == Role::Reflectance && hi > 1.0 + 1e-6 {
+            return Err(self.error(format!(
+                "`{key}`: a reflectance must lie in [0, 1], found values up to {hi}"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Scales an illuminant so that its luminance (CIE Y, as the film computes it) is 1.
+fn normalised(s: Spectrum) -> Spectrum {
+    let y = cie::spectrum_to_xyz(&s).y;
+    if y > 0.0 {
+        s.scaled(1.0 / y)
+    } else {
+        s
+    }
+}
+
+/// Smallest and largest value of a spectrum over the rendered range.
+fn sampled_range(s: &Spectrum) -> (f32, f32) {
+    (0..=(LAMBDA_MAX - LAMBDA_MIN) as usize)
+        .map(|i| s.eval(LAMBDA_MIN + i as f32))
+        .chain(match s {
+            Spectrum::Table(t) => t.values().to_vec(),
+            _ => vec![],
+        })
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        })
+}
