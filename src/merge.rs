@@ -222,7 +222,9 @@ mod tests {
         assert_eq!(parse_region("0,0,64,32"), Some([0, 0, 64, 32]));
         assert_eq!(parse_region("0,0,64"), None);
         assert_eq!(parse_region("5,0,5,10"), None);
-        assert_eq!(scene_hash(b"a"), scene_hash(b"a"));
-        assert_ne!(scene_hash(b"a"), scene_hash(b"b"));
+        // FNV-1a 64's published test vectors.
+        assert_eq!(scene_hash(b""), "cbf29ce484222325");
+        assert_eq!(scene_hash(b"a"), "af63dc4c8601ec8c");
+        assert_eq!(scene_hash(b"foobar"), "85944171f73967e8");
     }
 }

@@ -106,10 +106,6 @@ impl Texture {
         }
     }
 
-    pub fn size(&self) -> (u32, u32) {
-        (self.width, self.height)
-    }
-
     pub fn mean_rgb(&self) -> Vec3 {
         self.mean_rgb
     }

@@ -170,8 +170,24 @@ proptest! {
     #[test]
     fn mangled_scenes_load_or_fail_cleanly(text in mangled_scene()) {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        if let Err(e) = prism::scene::load_str(&text, dir) {
-            prop_assert!(!e.message.is_empty());
+        match prism::scene::load_str(&text, dir) {
+            Ok(s) => {
+                // What loads also renders (one sample a pixel, on films
+                // small enough for a test) without a non-finite sample.
+                if s.film.width as u64 * s.film.height as u64 <= 1 << 16 {
+                    let options = prism::render::RenderOptions {
+                        threads: Some(1),
+                        ..prism::render::RenderOptions::with_spp(&s, 1)
+                    };
+                    let (film, stats) = prism::render::render(&s, &options).unwrap();
+                    prop_assert_eq!(stats.non_finite, 0);
+                    prop_assert!(film.linear_srgb().iter().all(|c| c.is_finite()));
+                }
+            }
+            Err(e) => {
+                prop_assert!(!e.message.is_empty());
+                prop_assert!(e.to_string().starts_with("<scene>: "), "{}", e);
+            }
         }
     }
 

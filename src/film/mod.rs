@@ -69,7 +69,6 @@ pub struct FilmTile {
     pub x0: u32,
     pub y0: u32,
     pub width: u32,
-    pub height: u32,
     pub pixels: Vec<PixelSums>,
     /// Spectral contributions (pixel in the tile, bucket, radiance per nm),
     /// in sample order. Sparse: a sample touches at most four buckets, and a
@@ -101,7 +100,6 @@ impl FilmTile {
             x0,
             y0,
             width,
-            height,
             pixels: vec![PixelSums::default(); n],
             spectral: Vec::new(),
             splat_xyz: Vec::new(),

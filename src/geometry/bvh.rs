@@ -507,7 +507,14 @@ mod tests {
             Vec3::new(1.0, 2.0, 3.0).normalize(),
         );
         assert!(ray.t_max.is_infinite());
-        let _ = bvh.intersect(&ray, &ordered);
+        // It passes beside all three (at z = 0 it is at x = -2/3; at z = 5,
+        // x = 1; at z = 9, x = 7/3): the traversal must end with no hit.
+        let shear = RayShear::new(&ray);
+        assert!(tris
+            .iter()
+            .all(|t| triangle::intersect(&shear, t, ray.t_max).is_none()));
+        assert!(bvh.intersect(&ray, &ordered).is_none());
+        assert!(!bvh.occluded(&ray, &ordered));
         let hit = bvh.intersect(&Ray::new(Vec3::new(5.2, 5.2, 4.0), Vec3::Z), &ordered);
         assert!(hit.is_some());
         // Rays with a NaN (a camera far from the origin once normalised a

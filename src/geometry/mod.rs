@@ -27,10 +27,6 @@ impl Ray {
             t_max: f32::INFINITY,
         }
     }
-
-    pub fn at(&self, t: f32) -> Vec3 {
-        self.origin + self.dir * t
-    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,10 +70,6 @@ impl Aabb {
     pub fn surface_area(&self) -> f32 {
         let d = self.diagonal();
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.min.x > self.max.x
     }
 }
 

@@ -120,10 +120,6 @@ impl TabulatedSpectrum {
         self
     }
 
-    pub fn lambdas(&self) -> &[f32] {
-        &self.lambdas
-    }
-
     pub fn values(&self) -> &[f32] {
         &self.values
     }

@@ -10,7 +10,6 @@ mod spectra;
 
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -26,19 +25,12 @@ use crate::spectrum::Spectrum;
 const MAX_COORDINATE: f32 = 1e12;
 
 /// A scene that could not be loaded: which file, and what is wrong.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", file.display())]
 pub struct SceneError {
     pub file: PathBuf,
     pub message: String,
 }
-
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.file.display(), self.message)
-    }
-}
-
-impl std::error::Error for SceneError {}
 
 /// Values that replace the scene file's before the scene is built (the
 /// command line's flags), so that they pass the same checks as the file's.
