@@ -9,6 +9,7 @@
 //! wherever a light path lands). The driver keeps both deterministic for
 //! any thread count.
 
+mod interface;
 pub mod ior_stack;
 mod path;
 

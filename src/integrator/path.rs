@@ -3,9 +3,8 @@
 //! (power heuristic), and Russian roulette. Each path carries the stack of
 //! dielectric media it is inside.
 
-use glam::Vec4;
-
-use super::ior_stack::{Crossing, IorStack, Medium};
+use super::interface::{meet, scatter, Meeting, MAX_FALSE_INTERSECTIONS};
+use super::ior_stack::IorStack;
 use super::{power_heuristic, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -16,10 +15,6 @@ use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// Shadow rays stop this fraction short of the (already offset) light point.
 const SHADOW_EPSILON: f32 = 1e-6;
-
-/// A path that crosses more false intersections than this in a row is
-/// ended (a pathological overlap of surfaces, never a real scene).
-const MAX_FALSE_INTERSECTIONS: u32 = 256;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PathTracer {
@@ -38,14 +33,6 @@ impl Default for PathTracer {
             rr_depth: 3,
             strategy: Strategy::Mis,
         }
-    }
-}
-
-/// The index of refraction of a dielectric material at the path's wavelengths.
-pub(crate) fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
-    match scene.materials[material as usize].ior() {
-        Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
-        None => SampledSpectrum::ONE,
     }
 }
 
@@ -94,40 +81,20 @@ impl PathTracer {
             let material = &scene.materials[hit.material as usize];
 
             // Dielectrics: which media meet here, or is the surface not there?
-            let mut eta = SampledSpectrum::ONE;
-            let mut medium = None;
-            if material.ior().is_some() {
-                let m = Medium {
-                    material: hit.material,
-                    priority: material.priority(),
-                };
-                let entering = ray.dir.dot(hit.ng) < 0.0;
-                match stack.classify(m, entering) {
-                    Crossing::False => {
-                        if entering {
-                            if !stack.push(m) {
-                                counters.stack_overflows += 1;
-                            }
-                        } else {
-                            stack.remove(m.material);
-                        }
-                        false_hits += 1;
-                        if false_hits > MAX_FALSE_INTERSECTIONS {
-                            break;
-                        }
-                        ray = Ray::new(
-                            offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
-                            ray.dir,
-                        );
-                        continue;
+            let (eta, medium) = match meet(scene, &hit, ray.dir, &mut stack, wl, counters) {
+                Meeting::Pass => {
+                    false_hits += 1;
+                    if false_hits > MAX_FALSE_INTERSECTIONS {
+                        break;
                     }
-                    Crossing::Real { outside, inside } => {
-                        let n_out = outside.map_or(SampledSpectrum::ONE, |o| ior_at(scene, o, wl));
-                        eta = ior_at(scene, inside, wl) / n_out;
-                        medium = Some((m, entering));
-                    }
+                    ray = Ray::new(
+                        offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
+                        ray.dir,
+                    );
+                    continue;
                 }
-            }
+                Meeting::Real { eta, medium } => (eta, medium),
+            };
             false_hits = 0;
 
             if let Some(i) = hit.light {
@@ -178,17 +145,8 @@ impl PathTracer {
             ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
 
             // Transmission through a dielectric moves the path into or out of it.
-            if let Some((m, entering)) = medium {
-                if bs.wi.dot(hit.ng) * wo.dot(hit.ng) < 0.0 {
-                    eta_scale *= bs.eta * bs.eta;
-                    if entering {
-                        if !stack.push(m) {
-                            counters.stack_overflows += 1;
-                        }
-                    } else {
-                        stack.remove(m.material);
-                    }
-                }
+            if scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters) && medium.is_some() {
+                eta_scale *= bs.eta * bs.eta;
             }
 
             // Russian roulette: end dim paths with probability 1 − max(β), and

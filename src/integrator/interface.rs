@@ -1,0 +1,102 @@
+//! Where a path meets a surface: the dielectric bookkeeping every
+//! integrator shares. A dielectric's surface is a real interface between
+//! two media of the IOR stack, or a false intersection (inside a medium of
+//! higher priority) that the path crosses without scattering.
+
+use glam::{Vec3, Vec4};
+
+use super::ior_stack::{Crossing, IorStack, Medium};
+use super::PathCounters;
+use crate::scene::{Scene, SurfaceHit};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// A path that crosses more false intersections than this in a row is
+/// ended (a pathological overlap of surfaces, never a real scene).
+pub const MAX_FALSE_INTERSECTIONS: u32 = 256;
+
+/// What a surface is to the path that meets it.
+#[derive(Clone, Copy, Debug)]
+pub enum Meeting {
+    /// A false intersection: the path goes straight on (the stack has
+    /// already entered or left the surface's medium).
+    Pass,
+    /// A real surface. `eta` is n_inside / n_outside per wavelength (1 for
+    /// anything but a dielectric); `medium` is the dielectric that a
+    /// transmission enters (`true`) or leaves (`false`).
+    Real {
+        eta: SampledSpectrum,
+        medium: Option<(Medium, bool)>,
+    },
+}
+
+/// The index of refraction of a dielectric material at the path's wavelengths.
+pub fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
+    match scene.materials[material as usize].ior() {
+        Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
+        None => SampledSpectrum::ONE,
+    }
+}
+
+/// Classifies the surface `hit` met by a ray of direction `dir`.
+pub fn meet(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    dir: Vec3,
+    stack: &mut IorStack,
+    wl: &SampledWavelengths,
+    counters: &mut PathCounters,
+) -> Meeting {
+    let material = &scene.materials[hit.material as usize];
+    if material.ior().is_none() {
+        return Meeting::Real {
+            eta: SampledSpectrum::ONE,
+            medium: None,
+        };
+    }
+    let m = Medium {
+        material: hit.material,
+        priority: material.priority(),
+    };
+    let entering = dir.dot(hit.ng) < 0.0;
+    match stack.classify(m, entering) {
+        Crossing::False => {
+            move_through(stack, m, entering, counters);
+            Meeting::Pass
+        }
+        Crossing::Real { outside, inside } => {
+            let n_out = outside.map_or(SampledSpectrum::ONE, |o| ior_at(scene, o, wl));
+            Meeting::Real {
+                eta: ior_at(scene, inside, wl) / n_out,
+                medium: Some((m, entering)),
+            }
+        }
+    }
+}
+
+/// After scattering at a real surface from `wo` to `wi`: a transmission
+/// through a dielectric moves the path into or out of its medium. Returns
+/// whether the path crossed the surface.
+pub fn scatter(
+    stack: &mut IorStack,
+    medium: Option<(Medium, bool)>,
+    wo: Vec3,
+    wi: Vec3,
+    ng: Vec3,
+    counters: &mut PathCounters,
+) -> bool {
+    let crossed = wi.dot(ng) * wo.dot(ng) < 0.0;
+    if let (true, Some((m, entering))) = (crossed, medium) {
+        move_through(stack, m, entering, counters);
+    }
+    crossed
+}
+
+fn move_through(stack: &mut IorStack, m: Medium, entering: bool, counters: &mut PathCounters) {
+    if entering {
+        if !stack.push(m) {
+            counters.stack_overflows += 1;
+        }
+    } else {
+        stack.remove(m.material);
+    }
+}
