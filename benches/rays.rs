@@ -217,7 +217,9 @@ fn bench(c: &mut Criterion) {
         });
     }
     group.throughput(Throughput::Elements(4096));
-    let Integrator::Path(path) = scene.integrator.clone();
+    let Integrator::Path(path) = scene.integrator.clone() else {
+        unreachable!("the terrain scene is path traced")
+    };
     group.bench_function("paths (MIS, 4096 camera samples)", |b| {
         b.iter_batched(
             || (),

@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 use prism::film::Tonemap;
 use prism::integrator::Strategy;
 use prism::job::{describe, merge_files, render_files, MergeJob, RenderJob};
+use prism::scene::format::IntegratorKind;
 use prism::scene::Overrides;
 
 /// prism: a spectral, physically based path tracer.
@@ -61,7 +62,12 @@ enum Command {
         /// Tone map of the PNG (overrides film.tonemap).
         #[arg(long, value_enum)]
         tonemap: Option<TonemapArg>,
-        /// Direct-lighting strategy (overrides integrator.strategy).
+        /// Integrator (overrides integrator.type): path tracing from the
+        /// camera, or light tracing (paths from the lights, for caustics
+        /// seen directly).
+        #[arg(long, value_enum)]
+        integrator: Option<IntegratorArg>,
+        /// Direct-lighting strategy of the path tracer (overrides integrator.strategy).
         #[arg(long, value_enum)]
         strategy: Option<StrategyArg>,
         /// Wavelength range of the spectral buckets in nm, as MIN,MAX
@@ -174,6 +180,12 @@ enum TonemapArg {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+enum IntegratorArg {
+    Path,
+    Light,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 enum StrategyArg {
     Mis,
     Nee,
@@ -204,6 +216,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             seed,
             exposure,
             tonemap,
+            integrator,
             strategy,
             spectral_range,
             spectral_buckets,
@@ -219,6 +232,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 tonemap: tonemap.map(|t| match t {
                     TonemapArg::Clamp => Tonemap::Clamp,
                     TonemapArg::Reinhard => Tonemap::Reinhard,
+                }),
+                integrator: integrator.map(|i| match i {
+                    IntegratorArg::Path => IntegratorKind::Path,
+                    IntegratorArg::Light => IntegratorKind::Light,
                 }),
                 strategy: strategy.map(|s| match s {
                     StrategyArg::Mis => Strategy::Mis,

@@ -167,3 +167,53 @@ fn parts_that_do_not_belong_together_are_refused() {
         assert!(err.contains(expect), "expected `{expect}` in: {err}");
     }
 }
+
+#[test]
+fn light_traced_parts_merge_exactly_and_regions_are_refused() {
+    // Splats land anywhere, yet each part's pixels are its splat sums over
+    // its own sample count: sample ranges still merge to the single render.
+    let dir = tempfile::tempdir().unwrap();
+    let light = ["--integrator", "light"];
+    let single = spectral_exr::read(&render(
+        dir.path(),
+        "single",
+        &[&light[..], &["--spp", "6"]].concat(),
+    ))
+    .unwrap();
+    let parts = [
+        render(
+            dir.path(),
+            "a",
+            &[&light[..], &["--samples", "0..2"]].concat(),
+        ),
+        render(
+            dir.path(),
+            "b",
+            &[&light[..], &["--samples", "2..6"]].concat(),
+        ),
+    ];
+    let merged = dir.path().join("merged");
+    let mut args = vec!["merge", "-o", merged.to_str().unwrap()];
+    args.extend(parts.iter().map(|p| p.to_str().unwrap()));
+    ok(&args);
+    let merged = spectral_exr::read(&merged.with_extension("spectral.exr")).unwrap();
+    assert_eq!(merged.attributes["prismIntegrator"], "light");
+    let d = max_relative_difference(&merged, &single);
+    eprintln!("light-traced sample ranges merged: max relative difference {d:e}");
+    assert!(d < 1e-5, "merged differs from the single render by {d}");
+    // A region of a light-traced image is not the region's light: refused.
+    let out = prism(&[
+        "render",
+        SCENE,
+        "-q",
+        "--integrator",
+        "light",
+        "--tile",
+        "0,0,8,8",
+        "-o",
+        dir.path().join("tile").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not a region"), "{err}");
+}

@@ -139,6 +139,10 @@ impl FilmTile {
     /// Terminated wavelengths (pdf 0) contribute nothing.
     pub fn add_sample(&mut self, x: u32, y: u32, l: SampledSpectrum, wl: &SampledWavelengths) {
         let i = ((y - self.y0) * self.width + (x - self.x0)) as usize;
+        if l == SampledSpectrum::ZERO {
+            self.pixels[i].samples += 1;
+            return;
+        }
         let xyz = cie::sampled_to_xyz(l, wl).as_dvec3();
         let px = &mut self.pixels[i];
         px.xyz += xyz;

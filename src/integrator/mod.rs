@@ -11,10 +11,12 @@
 
 mod interface;
 pub mod ior_stack;
+mod light_tracer;
 mod path;
 
 use serde::Deserialize;
 
+pub use light_tracer::LightTracer;
 pub use path::PathTracer;
 
 use crate::film::FilmTile;
@@ -59,6 +61,7 @@ pub struct PixelSample {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Integrator {
     Path(PathTracer),
+    Light(LightTracer),
 }
 
 impl Default for Integrator {
@@ -79,6 +82,18 @@ impl Integrator {
                     strategy: spec.strategy.unwrap_or(d.strategy),
                 }))
             }
+            IntegratorKind::Light => {
+                if spec.strategy.is_some() {
+                    return Err(
+                        "`integrator.strategy` applies to the path tracer, not to `light`".into(),
+                    );
+                }
+                let d = LightTracer::default();
+                Ok(Integrator::Light(LightTracer {
+                    max_depth: spec.max_depth.unwrap_or(d.max_depth),
+                    rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+                }))
+            }
         }
     }
 
@@ -86,6 +101,7 @@ impl Integrator {
     pub fn name(&self) -> &'static str {
         match self {
             Integrator::Path(_) => "path",
+            Integrator::Light(_) => "light",
         }
     }
 
@@ -94,6 +110,7 @@ impl Integrator {
     pub fn splats(&self) -> bool {
         match self {
             Integrator::Path(_) => false,
+            Integrator::Light(_) => true,
         }
     }
 
@@ -105,7 +122,7 @@ impl Integrator {
         x: u32,
         y: u32,
         sampler: &mut Sampler,
-        _tile: &mut FilmTile,
+        tile: &mut FilmTile,
         counters: &mut PathCounters,
     ) -> PixelSample {
         match self {
@@ -116,6 +133,7 @@ impl Integrator {
                 let l = p.radiance(scene, ray, &mut wl, sampler, counters);
                 PixelSample { l, wl }
             }
+            Integrator::Light(t) => t.sample(scene, sampler, tile, counters),
         }
     }
 }

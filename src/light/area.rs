@@ -64,7 +64,7 @@ impl AreaLight {
     }
 
     /// A uniformly distributed point on the triangle.
-    fn sample_point(&self, u: (f32, f32)) -> (LightPoint, Vec2) {
+    fn sample_point(&self, u: (f32, f32)) -> LightPoint {
         let tri = &self.tri;
         let su = u.0.sqrt();
         let b = [1.0 - su, u.1 * su];
@@ -75,12 +75,12 @@ impl AreaLight {
             Some(uv) => uv[0] * (1.0 - b[1] - b2) + uv[1] * b[1] + uv[2] * b2,
             None => Vec2::ZERO,
         };
-        let point = LightPoint {
+        LightPoint {
             p,
             p_err: p_err * gamma(6),
             n: self.n,
-        };
-        (point, uv)
+            uv,
+        }
     }
 
     pub fn sample_li(
@@ -89,14 +89,14 @@ impl AreaLight {
         u: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLiSample> {
-        let (lp, uv) = self.sample_point(u);
+        let lp = self.sample_point(u);
         let to_light = lp.p - p_ref;
         let dist2 = to_light.length_squared();
         if dist2 == 0.0 {
             return None;
         }
         let wi = to_light / dist2.sqrt();
-        let li = self.l(uv, -wi, wl);
+        let li = self.l(lp.uv, -wi, wl);
         let cos_light = lp.n.dot(wi).abs();
         if li == SampledSpectrum::ZERO || cos_light == 0.0 {
             return None;
@@ -129,7 +129,7 @@ impl AreaLight {
         u_dir: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
-        let (lp, uv) = self.sample_point(u_pos);
+        let lp = self.sample_point(u_pos);
         let (mut u0, mut side) = (u_dir.0, 1.0);
         if self.two_sided {
             // Reuse the first dimension: its lower half picks the back.
@@ -144,7 +144,7 @@ impl AreaLight {
         let n = self.n * side;
         let local = cosine_hemisphere((u0, u_dir.1));
         let dir = Frame::from_normal(n).to_world(local);
-        let le = self.l(uv, dir, wl);
+        let le = self.l(lp.uv, dir, wl);
         let (pdf_pos, pdf_dir) = self.pdf_le(dir);
         if le == SampledSpectrum::ZERO || pdf_dir == 0.0 {
             return None;

@@ -59,6 +59,8 @@ pub struct LightPoint {
     pub p_err: Vec3,
     /// Unit normal on the emitting side.
     pub n: Vec3,
+    /// Texture coordinates (zero without them), for textured emitters.
+    pub uv: Vec2,
 }
 
 /// Light arriving at a point from a sampled point (or direction) of a light.

@@ -112,8 +112,11 @@ pub struct IntegratorSpec {
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorKind {
+    /// Paths from the camera with light sampling (the default).
     #[default]
     Path,
+    /// Paths from the lights, connected to the camera (splats).
+    Light,
 }
 
 #[derive(Debug, Deserialize)]

@@ -59,7 +59,6 @@ pub fn path_radiance(
 ) -> SampledSpectrum {
     match &scene.integrator {
         Integrator::Path(p) => p.radiance(scene, ray, wl, sampler, &mut PathCounters::default()),
-        #[allow(unreachable_patterns)]
         other => panic!("a path-traced scene, not {}", other.name()),
     }
 }

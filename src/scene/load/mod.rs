@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
-use super::format::SceneFile;
+use super::format::{IntegratorKind, SceneFile};
 use super::import::{Asset, TextureCache};
 use super::Scene;
 use crate::film::Tonemap;
@@ -43,6 +43,7 @@ pub struct Overrides {
     pub exposure: Option<f32>,
     pub tonemap: Option<Tonemap>,
     pub strategy: Option<Strategy>,
+    pub integrator: Option<IntegratorKind>,
 }
 
 impl Overrides {
@@ -71,6 +72,9 @@ impl Overrides {
         }
         if let Some(t) = self.tonemap {
             file.film.tonemap = t;
+        }
+        if let Some(kind) = self.integrator {
+            file.integrator.kind = kind;
         }
         if let Some(s) = self.strategy {
             file.integrator.strategy = Some(s);

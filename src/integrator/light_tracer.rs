@@ -1,0 +1,191 @@
+//! The light tracer: paths start at the lights and every vertex that can
+//! scatter towards the camera is connected to it, adding light to whichever
+//! pixel it lands in (a splat). This is bidirectional path tracing's t = 1
+//! strategy alone (Veach 1997 §10; pbrt-v4's LightPathIntegrator, Mitsuba
+//! 3's ptracer). It converges fast on caustics seen directly (light through
+//! glass onto a diffuse floor) and cannot see Dirac surfaces from the
+//! camera: a mirror or smooth glass in view is black.
+//!
+//! Light paths carry importance: the BSDF is evaluated in importance mode
+//! (no 1/η'² at refraction, Veach's shading-normal correction). Lights are
+//! taken to be outside every dielectric: their paths start with an empty
+//! IOR stack. Each sample of a pixel launches one light path, so a pixel's
+//! value is the sum of its splats over its sample count, as the render
+//! driver computes it.
+
+use super::interface::{meet, scatter, Meeting, MAX_FALSE_INTERSECTIONS};
+use super::ior_stack::IorStack;
+use super::{PathCounters, PixelSample};
+use crate::camera::CameraSample;
+use crate::film::FilmTile;
+use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::Ray;
+use crate::material::{ShadingGeometry, TransportMode};
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use glam::Vec3;
+
+/// Connections stop this fraction short of the camera.
+const SHADOW_EPSILON: f32 = 1e-6;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightTracer {
+    /// Most bounces between the light and the camera.
+    pub max_depth: u32,
+    /// Bounces before Russian roulette may end a path.
+    pub rr_depth: u32,
+}
+
+impl Default for LightTracer {
+    fn default() -> Self {
+        Self {
+            max_depth: 16,
+            rr_depth: 3,
+        }
+    }
+}
+
+impl LightTracer {
+    /// Traces one light path and splats its connections to the camera
+    /// into `tile`. Returns the (empty) measurement of the launching pixel.
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        sampler: &mut Sampler,
+        tile: &mut FilmTile,
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        let [u_lambda, u_light, p0, p1] = sampler.next_4d();
+        let [d0, d1, _, _] = sampler.next_4d();
+        let mut wl = SampledWavelengths::sample_visible(u_lambda);
+        let none = |wl| PixelSample {
+            l: SampledSpectrum::ZERO,
+            wl,
+        };
+        let Some((index, pmf)) = scene.lights.choose(u_light) else {
+            return none(wl);
+        };
+        let light = scene.lights.get(index);
+        let Some(les) = light.sample_le((p0, p1), (d0, d1), &wl) else {
+            return none(wl);
+        };
+        let lp = les.point;
+
+        // The light itself, seen by the camera.
+        if let Some(cs) = scene.camera.sample_wi(lp.p) {
+            let le = light.l(lp.uv, cs.wi, &wl);
+            let cos = lp.n.dot(cs.wi).abs();
+            if le != SampledSpectrum::ZERO
+                && self.visible(scene, lp.p, lp.p_err, lp.n, &cs, counters)
+            {
+                let l = le * (cs.weight * cos / (pmf * les.pdf_pos));
+                splat(tile, scene, &cs, l, &wl);
+            }
+        }
+
+        let cos = lp.n.dot(les.dir).abs();
+        let mut beta = les.le * (cos / (pmf * les.pdf_pos * les.pdf_dir));
+        let mut ray = Ray::new(offset_ray_origin(lp.p, lp.p_err, lp.n, les.dir), les.dir);
+        let mut stack = IorStack::default();
+        let (mut depth, mut false_hits) = (0, 0);
+        while depth < self.max_depth {
+            counters.rays += 1;
+            let Some(hit) = scene.intersect(&ray) else {
+                break;
+            };
+            let (eta, medium) = match meet(scene, &hit, ray.dir, &mut stack, &wl, counters) {
+                Meeting::Pass => {
+                    false_hits += 1;
+                    if false_hits > MAX_FALSE_INTERSECTIONS {
+                        break;
+                    }
+                    ray = Ray::new(
+                        offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
+                        ray.dir,
+                    );
+                    continue;
+                }
+                Meeting::Real { eta, medium } => (eta, medium),
+            };
+            false_hits = 0;
+            depth += 1;
+            let wo = -ray.dir;
+            let material = &scene.materials[hit.material as usize];
+            let geom = ShadingGeometry {
+                ng: hit.ng,
+                ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
+                wo,
+            };
+            let bsdf = material.bsdf(&geom, hit.uv, &mut wl, eta);
+
+            // Connect to the camera (Dirac lobes cannot turn towards it).
+            if !bsdf.is_specular() {
+                if let Some(cs) = scene.camera.sample_wi(hit.p) {
+                    let f = bsdf.f(wo, cs.wi, TransportMode::Importance);
+                    if f != SampledSpectrum::ZERO
+                        && self.visible(scene, hit.p, hit.p_err, hit.ng, &cs, counters)
+                    {
+                        let l = beta * f * (bsdf.cos_theta(cs.wi) * cs.weight);
+                        splat(tile, scene, &cs, l, &wl);
+                    }
+                }
+            }
+
+            let [u0, u1, uc, u_rr] = sampler.next_4d();
+            let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Importance) else {
+                break;
+            };
+            beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+            ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
+            scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
+
+            // Russian roulette, as the path tracer does it (importance is
+            // not scaled at refraction, so no η² bookkeeping is needed).
+            let max_beta = beta.max_element();
+            if depth >= self.rr_depth && max_beta < 1.0 {
+                let q = (1.0 - max_beta).max(0.0);
+                if u_rr < q {
+                    break;
+                }
+                beta /= 1.0 - q;
+            }
+            if !(max_beta > 0.0) {
+                break;
+            }
+        }
+        none(wl)
+    }
+
+    /// Whether nothing lies between the point and the camera.
+    fn visible(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        p_err: Vec3,
+        n: Vec3,
+        cs: &CameraSample,
+        counters: &mut PathCounters,
+    ) -> bool {
+        let origin = offset_ray_origin(p, p_err, n, cs.wi);
+        let shadow = Ray {
+            origin,
+            dir: scene.camera.position - origin,
+            t_max: 1.0 - SHADOW_EPSILON,
+        };
+        counters.rays += 1;
+        !scene.occluded(&shadow)
+    }
+}
+
+fn splat(
+    tile: &mut FilmTile,
+    scene: &Scene,
+    cs: &CameraSample,
+    l: SampledSpectrum,
+    wl: &SampledWavelengths,
+) {
+    let x = (cs.raster.x as u32).min(scene.film.width - 1);
+    let y = (cs.raster.y as u32).min(scene.film.height - 1);
+    tile.add_splat(x, y, l, wl);
+}
