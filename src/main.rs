@@ -9,9 +9,8 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
 use prism::film::Tonemap;
-use prism::integrator::Strategy;
+use prism::integrator::{IntegratorKind, Strategy};
 use prism::job::{describe, merge_files, render_files, MergeJob, RenderJob};
-use prism::scene::format::IntegratorKind;
 use prism::scene::Overrides;
 
 /// prism: a spectral, physically based path tracer.
@@ -66,7 +65,7 @@ enum Command {
         /// camera, or light tracing (paths from the lights, for caustics
         /// seen directly).
         #[arg(long, value_enum)]
-        integrator: Option<IntegratorArg>,
+        integrator: Option<IntegratorKind>,
         /// Direct-lighting strategy of the path tracer (overrides integrator.strategy).
         #[arg(long, value_enum)]
         strategy: Option<StrategyArg>,
@@ -180,12 +179,6 @@ enum TonemapArg {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
-enum IntegratorArg {
-    Path,
-    Light,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
 enum StrategyArg {
     Mis,
     Nee,
@@ -233,10 +226,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     TonemapArg::Clamp => Tonemap::Clamp,
                     TonemapArg::Reinhard => Tonemap::Reinhard,
                 }),
-                integrator: integrator.map(|i| match i {
-                    IntegratorArg::Path => IntegratorKind::Path,
-                    IntegratorArg::Light => IntegratorKind::Light,
-                }),
+                integrator,
                 strategy: strategy.map(|s| match s {
                     StrategyArg::Mis => Strategy::Mis,
                     StrategyArg::Nee => Strategy::Nee,

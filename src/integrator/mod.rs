@@ -21,7 +21,6 @@ pub use path::PathTracer;
 
 use crate::film::FilmTile;
 use crate::sampler::Sampler;
-use crate::scene::format::{IntegratorKind, IntegratorSpec};
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -37,6 +36,31 @@ pub enum Strategy {
     Nee,
     /// BSDF sampling only.
     Bsdf,
+}
+
+/// The `[integrator]` table: which integrator, and its parameters (each
+/// applies to the integrators that name it in README.md).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSpec {
+    #[serde(default, rename = "type")]
+    pub kind: IntegratorKind,
+    /// Most bounces: 1 is direct lighting only (default 16).
+    pub max_depth: Option<u32>,
+    /// Bounces before Russian roulette may end a path (default 3).
+    pub rr_depth: Option<u32>,
+    /// How the path tracer finds direct light: "mis" (default), "nee" or "bsdf".
+    pub strategy: Option<Strategy>,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorKind {
+    /// Paths from the camera with light sampling (the default).
+    #[default]
+    Path,
+    /// Paths from the lights, connected to the camera (splats).
+    Light,
 }
 
 /// Counts kept per path, summed by the renderer.
@@ -56,8 +80,8 @@ pub struct PixelSample {
 }
 
 /// Every integrator. Adding one: a module with its type (parameters as
-/// fields, a `sample` method), a variant here, its arm in `sample` and
-/// `splats`, and its parameters in `from_spec` (and `IntegratorKind`).
+/// fields, a `sample` method), and here a variant, an `IntegratorKind`, and
+/// its arms in `from_spec`, `name`, `splats` and `sample`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Integrator {
     Path(PathTracer),

@@ -8,7 +8,7 @@ use serde::Deserialize;
 
 use super::spectrum_spec::{IorSpec, SpectrumSpec};
 use crate::film::Tonemap;
-use crate::integrator::Strategy;
+use crate::integrator::IntegratorSpec;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -92,31 +92,6 @@ impl Default for FilmSpec {
             spectral: true,
         }
     }
-}
-
-/// The `[integrator]` table: which integrator, and its parameters (each
-/// applies to the integrators that name it in README.md).
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct IntegratorSpec {
-    #[serde(default, rename = "type")]
-    pub kind: IntegratorKind,
-    /// Most bounces: 1 is direct lighting only (default 16).
-    pub max_depth: Option<u32>,
-    /// Bounces before Russian roulette may end a path (default 3).
-    pub rr_depth: Option<u32>,
-    /// How the path tracer finds direct light: "mis" (default), "nee" or "bsdf".
-    pub strategy: Option<Strategy>,
-}
-
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum IntegratorKind {
-    /// Paths from the camera with light sampling (the default).
-    #[default]
-    Path,
-    /// Paths from the lights, connected to the camera (splats).
-    Light,
 }
 
 #[derive(Debug, Deserialize)]

@@ -13,11 +13,11 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
-use super::format::{IntegratorKind, SceneFile};
+use super::format::SceneFile;
 use super::import::{Asset, TextureCache};
 use super::Scene;
 use crate::film::Tonemap;
-use crate::integrator::Strategy;
+use crate::integrator::{IntegratorKind, Strategy};
 use crate::material::Material;
 use crate::spectrum::Spectrum;
 
