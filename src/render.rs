@@ -95,6 +95,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(Film, RenderSta
     }
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
+        check_address_space(n)?;
         b = b.num_threads(n);
     }
     let pool = b.build().map_err(|e| RenderError::Threads {
@@ -102,6 +103,40 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(Film, RenderSta
         reason: e.to_string(),
     })?;
     Ok(pool.install(|| render_in_pool(scene, options)))
+}
+
+/// Address space a worker thread takes: its 2 MiB stack (Rust's default),
+/// guard page and signal stack, rounded up.
+const THREAD_ADDRESS_SPACE: u64 = 4 << 20;
+
+/// Refuses more threads than the process's address-space limit allows
+/// (with half of it left for the scene and film). Past that limit a thread
+/// can start and then fail to allocate its signal stack, which the standard
+/// library can only abort on.
+fn check_address_space(threads: usize) -> Result<(), RenderError> {
+    // SAFETY: getrlimit only writes the struct it is given.
+    let limit = unsafe {
+        let mut r = std::mem::zeroed::<libc::rlimit>();
+        if libc::getrlimit(libc::RLIMIT_AS, &mut r) != 0 {
+            return Ok(());
+        }
+        r.rlim_cur
+    };
+    if limit == libc::RLIM_INFINITY {
+        return Ok(());
+    }
+    let need = threads as u64 * THREAD_ADDRESS_SPACE;
+    if need > limit / 2 {
+        return Err(RenderError::Threads {
+            threads,
+            reason: format!(
+                "they need about {} MiB of address space and the process may use {} MiB in all (ulimit -v)",
+                need >> 20,
+                limit >> 20
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Tiles rendered before their results are added to the film: bounds the

@@ -160,3 +160,52 @@ fn sigterm_writes_the_samples_done_so_far() {
         .collect();
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
+
+#[test]
+fn resource_failures_and_command_line_values_are_errors_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("ok.toml"), SCENE).unwrap();
+    // 5000 threads under a 4 GiB address space: the pool cannot start.
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 4000000; exec {} render ok.toml -q --threads 5000 --spp 1 --resolution 8x8",
+            env!("CARGO_BIN_EXE_prism")
+        ))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("cannot start 5000 worker threads"), "{err}");
+    // Overrides are checked like the file's values, naming the flag.
+    let err = failing(
+        &["render", "ok.toml", "--spectral-range", "300,900"],
+        dir.path(),
+    );
+    assert!(err.contains("--spectral-range"), "{err}");
+    let err = failing(&["render", "ok.toml", "--exposure", "NaN"], dir.path());
+    assert!(err.contains("exposure"), "{err}");
+    // A part without its R channel: merge refuses it.
+    succeed(
+        prism()
+            .args([
+                "render",
+                "ok.toml",
+                "-q",
+                "--spp",
+                "1",
+                "--resolution",
+                "8x8",
+                "-o",
+                "part",
+            ])
+            .current_dir(dir.path()),
+    );
+    let part = dir.path().join("part.spectral.exr");
+    let mut img = prism::film::spectral_exr::read(&part).unwrap();
+    img.other.remove("R");
+    prism::film::spectral_exr::write_image(&img, &part).unwrap();
+    let err = failing(&["merge", "part.spectral.exr", "-o", "merged"], dir.path());
+    assert!(err.contains("no `R` channel"), "{err}");
+}

@@ -162,3 +162,70 @@ fn broken_obj_is_an_error_not_a_panic() {
         assert!(e.contains(name) && e.contains(expect), "{e}");
     }
 }
+
+#[test]
+fn optical_constants_are_not_illuminants() {
+    // η, k and IOR tables are unbounded spectra: an illuminant name or a
+    // blackbody (normalised to luminance 1) would silently give nonsense.
+    let metal = |eta: &str, k: &str| {
+        format!("{CAMERA}[materials.m]\ntype = \"conductor\"\neta = {eta}\nk = {k}\n")
+    };
+    let e = error(&metal("\"D65\"", "{ rgb = [1, 1, 1] }"));
+    assert!(
+        e.contains("materials.m.eta") && e.contains("illuminant, not an optical constant"),
+        "{e}"
+    );
+    let e = error(&metal("1.5", "{ blackbody = 3000 }"));
+    assert!(
+        e.contains("materials.m.k") && e.contains("blackbody"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{CAMERA}[materials.g]\ntype = \"dielectric\"\nior = \"D65\"\n"
+    ));
+    assert!(e.contains("illuminant"), "{e}");
+    // An RGB k of (1, 1, 1) is k ≈ 1 at every wavelength, not an
+    // emission normalised to luminance 1 (which gave k ≈ 0.01).
+    let s = load_str(
+        &metal("1.5", "{ rgb = [1, 1, 1] }"),
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+    )
+    .unwrap();
+    let prism::material::Material::Conductor { k, .. } = &s.materials[0] else {
+        panic!("a conductor");
+    };
+    for lambda in [450.0, 550.0, 650.0] {
+        assert!(
+            (k.eval(lambda) - 1.0).abs() < 0.05,
+            "k({lambda}) = {}",
+            k.eval(lambda)
+        );
+    }
+}
+
+#[test]
+fn max_depth_moved_to_the_integrator() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let s = load_str(&format!("{CAMERA}[film]\nmax_depth = 3\n"), dir).unwrap();
+    assert!(s
+        .warnings
+        .iter()
+        .any(|w| w.contains("integrator.max_depth")));
+    let prism::integrator::Integrator::Path(p) = &s.integrator else {
+        panic!("the default integrator is the path tracer");
+    };
+    assert_eq!(p.max_depth, 3);
+    let e = error(&format!(
+        "{CAMERA}[film]\nmax_depth = 3\n[integrator]\nmax_depth = 4\n"
+    ));
+    assert!(e.contains("both given"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[integrator]\ntype = \"light\"\nstrategy = \"nee\"\n"
+    ));
+    assert!(
+        e.contains("integrator.strategy") && e.contains("path tracer"),
+        "{e}"
+    );
+    let e = error(&format!("{CAMERA}[integrator]\ntype = \"bdpt\"\n"));
+    assert!(e.contains("unknown variant `bdpt`"), "{e}");
+}
