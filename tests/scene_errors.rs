@@ -180,10 +180,11 @@ fn optical_constants_are_not_illuminants() {
         e.contains("materials.m.k") && e.contains("blackbody"),
         "{e}"
     );
+    // A spectrum named under [spectra] that is an illuminant, used as η.
     let e = error(&format!(
-        "{CAMERA}[materials.g]\ntype = \"dielectric\"\nior = \"D65\"\n"
+        "{CAMERA}[spectra]\nlamp = \"D65\"\n[materials.m]\ntype = \"conductor\"\neta = \"lamp\"\nk = 1\n"
     ));
-    assert!(e.contains("illuminant"), "{e}");
+    assert!(e.contains("illuminant, not an optical constant"), "{e}");
     // An RGB k of (1, 1, 1) is k ≈ 1 at every wavelength, not an
     // emission normalised to luminance 1 (which gave k ≈ 0.01).
     let s = load_str(

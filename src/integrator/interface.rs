@@ -30,6 +30,7 @@ pub enum Meeting {
 }
 
 /// The index of refraction of a dielectric material at the path's wavelengths.
+#[inline]
 pub fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
     match scene.materials[material as usize].ior() {
         Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
@@ -38,6 +39,7 @@ pub fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledS
 }
 
 /// Classifies the surface `hit` met by a ray of direction `dir`.
+#[inline]
 pub fn meet(
     scene: &Scene,
     hit: &SurfaceHit,
@@ -76,6 +78,7 @@ pub fn meet(
 /// After scattering at a real surface from `wo` to `wi`: a transmission
 /// through a dielectric moves the path into or out of its medium. Returns
 /// whether the path crossed the surface.
+#[inline]
 pub fn scatter(
     stack: &mut IorStack,
     medium: Option<(Medium, bool)>,
@@ -91,6 +94,7 @@ pub fn scatter(
     crossed
 }
 
+#[inline]
 fn move_through(stack: &mut IorStack, m: Medium, entering: bool, counters: &mut PathCounters) {
     if entering {
         if !stack.push(m) {

@@ -56,6 +56,7 @@ impl AreaLight {
 
     /// Radiance leaving a point with texture coordinates `uv` towards `w`
     /// (unit, pointing away from the light).
+    #[inline]
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         if !self.two_sided && self.n.dot(w) <= 0.0 {
             return SampledSpectrum::ZERO;
@@ -64,6 +65,7 @@ impl AreaLight {
     }
 
     /// A uniformly distributed point on the triangle.
+    #[inline]
     fn sample_point(&self, u: (f32, f32)) -> LightPoint {
         let tri = &self.tri;
         let su = u.0.sqrt();
@@ -83,6 +85,7 @@ impl AreaLight {
         }
     }
 
+    #[inline]
     pub fn sample_li(
         &self,
         p_ref: Vec3,
@@ -111,6 +114,7 @@ impl AreaLight {
 
     /// Solid-angle density of `sample_li` from `p_ref` for the point
     /// `p_light` on the light.
+    #[inline]
     pub fn pdf_li(&self, p_ref: Vec3, p_light: Vec3) -> f32 {
         let d = p_light - p_ref;
         let dist2 = d.length_squared();

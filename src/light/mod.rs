@@ -42,6 +42,7 @@ impl Emitter {
     }
 
     /// Radiance at texture coordinates `uv`.
+    #[inline]
     pub fn radiance(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
         let le = self.spectrum.sample(wl);
         match &self.texture {
@@ -106,6 +107,7 @@ macro_rules! dispatch {
 impl Light {
     /// A Dirac delta in position or direction (point, spot, directional):
     /// never hit by a ray, sampled by next-event estimation only.
+    #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
             Light::Area(_) => false,
@@ -123,6 +125,7 @@ impl Light {
         dispatch!(self, l => l.power())
     }
 
+    #[inline]
     pub fn sample_li(
         &self,
         p_ref: Vec3,
@@ -135,6 +138,7 @@ impl Light {
     /// Solid-angle density of `sample_li` from `p_ref` along `wi` (unit),
     /// which meets the light at `p_light` (None: the ray escaped the scene,
     /// as it does for lights at infinity).
+    #[inline]
     pub fn pdf_li(&self, p_ref: Vec3, _wi: Vec3, p_light: Option<Vec3>) -> f32 {
         match (self, p_light) {
             (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
@@ -144,6 +148,7 @@ impl Light {
 
     /// Radiance a surface light sends towards `w` (unit, away from the
     /// light) from a point with texture coordinates `uv`.
+    #[inline]
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Area(l) => l.l(uv, w, wl),
@@ -152,6 +157,7 @@ impl Light {
 
     /// Radiance arriving along an escaped ray of direction `dir` from a
     /// light at infinity; zero for the others.
+    #[inline]
     pub fn le(&self, _dir: Vec3, _wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Area(_) => SampledSpectrum::ZERO,
@@ -207,21 +213,25 @@ impl LightSet {
         self.selection.is_empty()
     }
 
+    #[inline]
     pub fn get(&self, light: usize) -> &Light {
         &self.lights[light]
     }
 
     /// Chooses a light to sample; returns its index and probability.
+    #[inline]
     pub fn choose(&self, u: f32) -> Option<(usize, f32)> {
         self.selection.choose(u)
     }
 
     /// Probability that `choose` picks `light`.
+    #[inline]
     pub fn pmf(&self, light: usize) -> f32 {
         self.selection.pmf(light)
     }
 
     /// The lights at infinity, with their indices.
+    #[inline]
     pub fn infinite(&self) -> impl Iterator<Item = (usize, &Light)> {
         self.infinite.iter().map(|&i| (i, &self.lights[i]))
     }

@@ -36,6 +36,7 @@ impl PowerSelection {
     }
 
     /// A light index and its probability.
+    #[inline]
     pub fn choose(&self, u: f32) -> Option<(usize, f32)> {
         if self.is_empty() {
             return None;
@@ -48,6 +49,7 @@ impl PowerSelection {
         (pmf > 0.0).then_some((i, pmf))
     }
 
+    #[inline]
     pub fn pmf(&self, light: usize) -> f32 {
         self.pmf[light]
     }

@@ -13,9 +13,10 @@
 //! - The geometric normal decides what reflects and what transmits: a
 //!   reflection must stay on `wo`'s side of the true surface and a
 //!   transmission must cross it, whatever the shading normal says.
-//! - Sampling a non-Dirac lobe returns a direction; its value and density
-//!   come from `eval`, so sampling can never disagree with evaluation (what
-//!   MIS needs), and one guard drops samples of zero or non-finite density.
+//! - A lobe with a density samples a direction and returns its own `eval`
+//!   of it, so sampling agrees with evaluation (what MIS needs; the chi²
+//!   tests check it), and one guard here drops samples of zero or
+//!   non-finite weight.
 
 use glam::Vec3;
 
@@ -54,6 +55,7 @@ impl BsdfFlags {
         self.0 & other.0 == other.0
     }
 
+    #[inline]
     pub fn is_specular(self) -> bool {
         self.contains(Self::SPECULAR)
     }
@@ -108,23 +110,30 @@ impl BsdfSample {
     }
 }
 
-/// What a lobe's `sample` returns, in its local frame.
+/// What a lobe's `sample` returns, in its local frame. A lobe with a
+/// density returns its own `eval` of the sampled direction (tests/bsdf.rs
+/// checks that they agree); a Dirac lobe its value and discrete probability.
 #[derive(Clone, Copy, Debug)]
-pub enum LobeSample {
-    /// A Dirac lobe: the lobe gives value and (discrete) probability.
-    Dirac {
-        wi: Vec3,
-        f: SampledSpectrum,
-        pdf: f32,
-        flags: BsdfFlags,
-        eta: f32,
-    },
-    /// A direction from a lobe with a density: the wrapper evaluates it.
-    Direction {
-        wi: Vec3,
-        flags: BsdfFlags,
-        eta: f32,
-    },
+pub struct LobeSample {
+    pub wi: Vec3,
+    pub f: SampledSpectrum,
+    pub pdf: f32,
+    pub flags: BsdfFlags,
+    pub eta: f32,
+}
+
+impl LobeSample {
+    /// A sampled direction of a lobe with a density, with its evaluation.
+    #[inline]
+    pub fn evaluated(wi: Vec3, e: BsdfEval, flags: BsdfFlags, eta: f32) -> Self {
+        Self {
+            wi,
+            f: e.f,
+            pdf: e.pdf,
+            flags,
+            eta,
+        }
+    }
 }
 
 /// The scattering models. Adding one: a module with a lobe type that has
@@ -150,14 +159,17 @@ macro_rules! dispatch {
 }
 
 impl Lobe {
+    #[inline]
     fn flags(&self) -> BsdfFlags {
         dispatch!(self, b => b.flags())
     }
 
+    #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> BsdfEval {
         dispatch!(self, b => b.eval(wo, wi, mode))
     }
 
+    #[inline]
     fn sample(&self, wo: Vec3, uc: f32, u: (f32, f32), mode: TransportMode) -> Option<LobeSample> {
         dispatch!(self, b => b.sample(wo, uc, u, mode))
     }
@@ -170,11 +182,32 @@ pub struct Bsdf {
     /// Geometric normal (either orientation: only sides are compared).
     ng: Vec3,
     lobe: Lobe,
+    /// The direction the path arrived from, in world and local space: most
+    /// queries ask about it, so its transform is done once.
+    wo: Vec3,
+    wo_local: Vec3,
 }
 
 impl Bsdf {
-    pub fn new(frame: Frame, ng: Vec3, lobe: Lobe) -> Self {
-        Self { frame, ng, lobe }
+    /// The BSDF of `lobe` in `frame`, at a hit reached from direction `wo`.
+    #[inline]
+    pub fn new(frame: Frame, ng: Vec3, lobe: Lobe, wo: Vec3) -> Self {
+        Self {
+            frame,
+            ng,
+            lobe,
+            wo,
+            wo_local: frame.to_local(wo),
+        }
+    }
+
+    #[inline]
+    fn local(&self, w: Vec3) -> Vec3 {
+        if w == self.wo {
+            self.wo_local
+        } else {
+            self.frame.to_local(w)
+        }
     }
 
     pub fn flags(&self) -> BsdfFlags {
@@ -196,18 +229,21 @@ impl Bsdf {
     }
 
     /// |cos| between `w` and the shading normal, for the rendering equation.
+    #[inline]
     pub fn cos_theta(&self, w: Vec3) -> f32 {
         self.frame.n.dot(w).abs()
     }
 
     /// Whether the geometric surface agrees with what the shading frame
     /// calls a reflection (`reflect`) or a transmission.
+    #[inline]
     fn geometry_agrees(&self, wo: Vec3, wi: Vec3, reflect: bool) -> bool {
         (wo.dot(self.ng) * wi.dot(self.ng) > 0.0) == reflect
     }
 
     /// Veach's adjoint correction for shading normals, for importance:
     /// |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|).
+    #[inline]
     fn importance_correction(&self, wo: Vec3, wi: Vec3) -> f32 {
         let den = wo.dot(self.ng).abs() * self.frame.n.dot(wi).abs();
         if den == 0.0 {
@@ -217,8 +253,9 @@ impl Bsdf {
     }
 
     /// f(wo, wi) and the density of sampling `wi` from `wo` (zero for Dirac lobes).
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> BsdfEval {
-        let (wo_l, wi_l) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        let (wo_l, wi_l) = (self.local(wo), self.frame.to_local(wi));
         if wo_l.z == 0.0 || !self.geometry_agrees(wo, wi, wo_l.z * wi_l.z > 0.0) {
             return BsdfEval::ZERO;
         }
@@ -238,6 +275,7 @@ impl Bsdf {
     }
 
     /// Samples `wi` given `wo`: `uc` chooses between lobes, `u` within one.
+    #[inline]
     pub fn sample(
         &self,
         wo: Vec3,
@@ -245,50 +283,30 @@ impl Bsdf {
         u: (f32, f32),
         mode: TransportMode,
     ) -> Option<BsdfSample> {
-        let wo_l = self.frame.to_local(wo);
+        let wo_l = self.local(wo);
         if wo_l.z == 0.0 {
             return None;
         }
-        match self.lobe.sample(wo_l, uc, u, mode)? {
-            LobeSample::Dirac {
-                wi,
-                f,
-                pdf,
-                flags,
-                eta,
-            } => {
-                let wi_world = self.frame.to_world(wi);
-                if !self.geometry_agrees(wo, wi_world, wo_l.z * wi.z > 0.0) {
-                    return None;
-                }
-                let f = if mode == TransportMode::Importance {
-                    f * self.importance_correction(wo, wi_world)
-                } else {
-                    f
-                };
-                Some(BsdfSample {
-                    wi: wi_world,
-                    f,
-                    pdf,
-                    flags,
-                    eta,
-                })
-            }
-            LobeSample::Direction { wi, flags, eta } => {
-                let wi = self.frame.to_world(wi);
-                let BsdfEval { f, pdf } = self.eval(wo, wi, mode);
-                if !(pdf > 0.0 && pdf.is_finite() && f.is_finite()) {
-                    return None;
-                }
-                Some(BsdfSample {
-                    wi,
-                    f,
-                    pdf,
-                    flags,
-                    eta,
-                })
-            }
+        let smp = self.lobe.sample(wo_l, uc, u, mode)?;
+        let wi = self.frame.to_world(smp.wi);
+        if !self.geometry_agrees(wo, wi, wo_l.z * smp.wi.z > 0.0) {
+            return None;
         }
+        let f = match mode {
+            TransportMode::Radiance => smp.f,
+            TransportMode::Importance => smp.f * self.importance_correction(wo, wi),
+        };
+        // One guard for every lobe: no sample of zero or non-finite weight.
+        if !(smp.pdf > 0.0 && smp.pdf.is_finite() && f.is_finite()) {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            f,
+            pdf: smp.pdf,
+            flags: smp.flags,
+            eta: smp.eta,
+        })
     }
 }
 

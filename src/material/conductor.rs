@@ -58,11 +58,11 @@ impl ConductorLobe {
         wo: Vec3,
         _uc: f32,
         u: (f32, f32),
-        _mode: TransportMode,
+        mode: TransportMode,
     ) -> Option<LobeSample> {
         let (up, _) = upper(wo, wo);
         if self.ggx.is_smooth() {
-            return Some(LobeSample::Dirac {
+            return Some(LobeSample {
                 wi: Vec3::new(-wo.x, -wo.y, wo.z),
                 f: self.fresnel(up.z) / up.z,
                 pdf: 1.0,
@@ -74,10 +74,12 @@ impl ConductorLobe {
         if wi.z <= 0.0 {
             return None;
         }
-        Some(LobeSample::Direction {
-            wi: to_side_of(wo, wi),
-            flags: self.flags(),
-            eta: 1.0,
-        })
+        let wi = to_side_of(wo, wi);
+        Some(LobeSample::evaluated(
+            wi,
+            self.eval(wo, wi, mode),
+            self.flags(),
+            1.0,
+        ))
     }
 }

@@ -157,7 +157,7 @@ impl DielectricLobe {
                     .eta
                     .to_array()
                     .map(|e| fresnel::dielectric(wo.z, e) / wi.z.abs());
-                return Some(LobeSample::Dirac {
+                return Some(LobeSample {
                     wi,
                     f: SampledSpectrum::from_array(f),
                     pdf: r,
@@ -177,7 +177,7 @@ impl DielectricLobe {
                 .eta
                 .to_array()
                 .map(|e| (1.0 - fresnel::dielectric(wo.z, e)) / wi.z.abs() / scale);
-            return Some(LobeSample::Dirac {
+            return Some(LobeSample {
                 wi,
                 f: SampledSpectrum::from_array(f),
                 pdf: 1.0 - r,
@@ -192,21 +192,25 @@ impl DielectricLobe {
             if wi.z * wo.z <= 0.0 {
                 return None;
             }
-            Some(LobeSample::Direction {
+            let flags = BsdfFlags::REFLECTION | BsdfFlags::GLOSSY;
+            Some(LobeSample::evaluated(
                 wi,
-                flags: BsdfFlags::REFLECTION | BsdfFlags::GLOSSY,
-                eta: 1.0,
-            })
+                self.eval(wo, wi, mode),
+                flags,
+                1.0,
+            ))
         } else {
             let (wi, etap) = refract(wo, wm, eta)?;
             if wi.z * wo.z >= 0.0 || wi.z == 0.0 {
                 return None;
             }
-            Some(LobeSample::Direction {
+            let flags = BsdfFlags::TRANSMISSION | BsdfFlags::GLOSSY;
+            Some(LobeSample::evaluated(
                 wi,
-                flags: BsdfFlags::TRANSMISSION | BsdfFlags::GLOSSY,
-                eta: etap,
-            })
+                self.eval(wo, wi, mode),
+                flags,
+                etap,
+            ))
         }
     }
 }

@@ -14,6 +14,7 @@ pub struct DiffuseLobe {
 }
 
 impl DiffuseLobe {
+    #[inline]
     pub fn new(reflectance: SampledSpectrum) -> Self {
         Self {
             reflectance: reflectance.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE),
@@ -24,6 +25,7 @@ impl DiffuseLobe {
         BsdfFlags::REFLECTION | BsdfFlags::DIFFUSE
     }
 
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> BsdfEval {
         if wo.z * wi.z <= 0.0 {
             return BsdfEval::ZERO;
@@ -34,18 +36,17 @@ impl DiffuseLobe {
         }
     }
 
+    #[inline]
     pub fn sample(
         &self,
         wo: Vec3,
         _uc: f32,
         u: (f32, f32),
-        _mode: TransportMode,
+        mode: TransportMode,
     ) -> Option<LobeSample> {
-        Some(LobeSample::Direction {
-            wi: to_side_of(wo, cosine_hemisphere(u)),
-            flags: self.flags(),
-            eta: 1.0,
-        })
+        let wi = to_side_of(wo, cosine_hemisphere(u));
+        let e = self.eval(wo, wi, mode);
+        Some(LobeSample::evaluated(wi, e, self.flags(), 1.0))
     }
 }
 

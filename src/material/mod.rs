@@ -121,6 +121,7 @@ impl Material {
                     frame,
                     ng,
                     Lobe::Diffuse(DiffuseLobe::new(reflectance.sample(uv, wl))),
+                    geom.wo,
                 )
             }
             Material::Pbr(m) => {
@@ -137,12 +138,12 @@ impl Material {
                     microfacet::alpha_from_roughness(roughness),
                     m.ior,
                 );
-                Bsdf::new(frame, ng, Lobe::Pbr(lobe))
+                Bsdf::new(frame, ng, Lobe::Pbr(lobe), geom.wo)
             }
             Material::Conductor { eta, k, alpha } => {
                 let (frame, ng) = facing_frame(geom);
                 let lobe = ConductorLobe::new(eta.sample(wl), k.sample(wl), *alpha);
-                Bsdf::new(frame, ng, Lobe::Conductor(lobe))
+                Bsdf::new(frame, ng, Lobe::Conductor(lobe), geom.wo)
             }
             Material::Dielectric { alpha, .. } => {
                 // The frame's +z points outside: `eta` is inside / outside.
@@ -155,7 +156,12 @@ impl Material {
                 if dielectric::is_dispersive(eta) && lobe.is_specular() {
                     wl.terminate_secondary();
                 }
-                Bsdf::new(Frame::from_normal(ns), geom.ng, Lobe::Dielectric(lobe))
+                Bsdf::new(
+                    Frame::from_normal(ns),
+                    geom.ng,
+                    Lobe::Dielectric(lobe),
+                    geom.wo,
+                )
             }
         }
     }

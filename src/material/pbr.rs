@@ -116,7 +116,7 @@ impl PbrLobe {
         wo: Vec3,
         uc: f32,
         u: (f32, f32),
-        _mode: TransportMode,
+        mode: TransportMode,
     ) -> Option<LobeSample> {
         let (up, _) = upper(wo, wo);
         let (wi, lobe) = if uc < self.p_specular(up) {
@@ -127,10 +127,13 @@ impl PbrLobe {
         if wi.z <= 0.0 {
             return None;
         }
-        Some(LobeSample::Direction {
-            wi: to_side_of(wo, wi),
-            flags: BsdfFlags::REFLECTION | lobe,
-            eta: 1.0,
-        })
+        let wi = to_side_of(wo, wi);
+        let e = self.eval(wo, wi, mode);
+        Some(LobeSample::evaluated(
+            wi,
+            e,
+            BsdfFlags::REFLECTION | lobe,
+            1.0,
+        ))
     }
 }
