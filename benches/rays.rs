@@ -108,6 +108,7 @@ fn terrain(mesh: Mesh) -> Scene {
             material: 0,
             emission: None,
         }],
+        Vec::new(),
     )
 }
 

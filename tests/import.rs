@@ -244,7 +244,9 @@ fn gltf_materials_map_to_spectral_materials() {
     let back = light.l(h.uv, -h.ng, &wl);
     assert_eq!(front, back);
     assert!(front.x < front.w, "reddish: {front}");
-    let prism::light::Light::Area(area) = light;
+    let prism::light::Light::Area(area) = light else {
+        panic!("the lamp is an area light");
+    };
     let y = prism::spectrum::cie::spectrum_to_xyz(&area.emitter().spectrum).y;
     let expected = 4.0 * (0.2126 + 0.7152 * 0.5 + 0.0722 * 0.25);
     assert!(

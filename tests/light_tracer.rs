@@ -214,6 +214,49 @@ emission = 4
 }
 
 #[test]
+fn light_tracer_matches_the_path_tracer_under_delta_lights() {
+    // Point, spot and directional lights: light paths start at a point, in
+    // a cone and on a disc over the scene.
+    let text = r#"
+[camera]
+position = [0, 4, -6]
+look_at = [0, 0, 0]
+fov = 50
+[film]
+resolution = [32, 24]
+spp = 16
+[materials.white]
+type = "diffuse"
+reflectance = 0.7
+[[shape]]
+type = "quad"
+vertices = [[-6, 0, -6], [-6, 0, 6], [6, 0, 6], [6, 0, -6]]
+material = "white"
+[[shape]]
+type = "sphere"
+center = [0, 0.8, 0]
+radius = 0.8
+material = "white"
+[[light]]
+type = "point"
+position = [-2, 3, -1]
+intensity = 8
+[[light]]
+type = "spot"
+position = [3, 4, 0]
+look_at = [1.5, 0, 1]
+intensity = 30
+cone_angle = 25
+falloff_start = 15
+[[light]]
+type = "directional"
+direction = [1, -2, 1]
+irradiance = 0.3
+"#;
+    assert_integrators_agree(text, "point, spot and directional lights");
+}
+
+#[test]
 fn splats_are_the_same_for_any_thread_count() {
     let s = common::scene(&format!(
         "{}\n[integrator]\ntype = \"light\"\n",

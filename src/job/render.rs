@@ -92,7 +92,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
     eprintln!(
-        "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} emissive triangles, {}x{}, {} integrator",
+        "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} lights, {}x{}, {} integrator",
         job.scene.display(),
         load_start.elapsed().as_secs_f64(),
         scene.triangle_count(),

@@ -12,6 +12,8 @@
 //! - `power`: for the selection distribution ([`PowerSelection`]).
 
 mod area;
+mod directional;
+mod point;
 mod selection;
 
 use std::sync::Arc;
@@ -19,6 +21,8 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 pub use area::AreaLight;
+pub use directional::DirectionalLight;
+pub use point::{Cone, PointLight};
 pub use selection::PowerSelection;
 
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
@@ -90,18 +94,14 @@ pub struct LightLeSample {
 }
 
 /// Every kind of light. Adding one: a module with its type, a variant
-/// here, and one line in each `dispatch!` below.
+/// here, and its arm in each method below.
 #[derive(Clone, Debug)]
 pub enum Light {
+    /// An emissive triangle.
     Area(AreaLight),
-}
-
-macro_rules! dispatch {
-    ($light:expr, $l:ident => $call:expr) => {
-        match $light {
-            Light::Area($l) => $call,
-        }
-    };
+    /// A point or spot light.
+    Point(PointLight),
+    Directional(DirectionalLight),
 }
 
 impl Light {
@@ -111,18 +111,32 @@ impl Light {
     pub fn is_delta(&self) -> bool {
         match self {
             Light::Area(_) => false,
+            Light::Point(_) | Light::Directional(_) => true,
         }
     }
 
-    /// At infinity: seen by rays that escape the scene (`le`).
+    /// At infinity: escaped rays would see it (`le`), and it must know the
+    /// scene's bounds (`with_scene_bounds`).
+    #[inline]
     pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Directional(_))
+    }
+
+    /// The light for a scene within the sphere (`centre`, `radius`).
+    pub fn with_scene_bounds(self, centre: Vec3, radius: f32) -> Self {
         match self {
-            Light::Area(_) => false,
+            Light::Directional(l) => Light::Directional(l.with_scene(centre, radius)),
+            other => other,
         }
     }
 
+    /// Relative power, for the selection distribution.
     pub fn power(&self) -> f64 {
-        dispatch!(self, l => l.power())
+        match self {
+            Light::Area(l) => l.power(),
+            Light::Point(l) => l.power(),
+            Light::Directional(l) => l.power(),
+        }
     }
 
     #[inline]
@@ -132,17 +146,22 @@ impl Light {
         u: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLiSample> {
-        dispatch!(self, l => l.sample_li(p_ref, u, wl))
+        match self {
+            Light::Area(l) => l.sample_li(p_ref, u, wl),
+            Light::Point(l) => l.sample_li(p_ref, wl),
+            Light::Directional(l) => l.sample_li(wl),
+        }
     }
 
     /// Solid-angle density of `sample_li` from `p_ref` along `wi` (unit),
     /// which meets the light at `p_light` (None: the ray escaped the scene,
-    /// as it does for lights at infinity).
+    /// as it does for lights at infinity). Zero for delta lights: no ray
+    /// finds them.
     #[inline]
     pub fn pdf_li(&self, p_ref: Vec3, _wi: Vec3, p_light: Option<Vec3>) -> f32 {
         match (self, p_light) {
             (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
-            (Light::Area(_), None) => 0.0,
+            _ => 0.0,
         }
     }
 
@@ -152,16 +171,15 @@ impl Light {
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Area(l) => l.l(uv, w, wl),
+            Light::Point(_) | Light::Directional(_) => SampledSpectrum::ZERO,
         }
     }
 
     /// Radiance arriving along an escaped ray of direction `dir` from a
-    /// light at infinity; zero for the others.
+    /// light at infinity that has extent (a directional light has none).
     #[inline]
     pub fn le(&self, _dir: Vec3, _wl: &SampledWavelengths) -> SampledSpectrum {
-        match self {
-            Light::Area(_) => SampledSpectrum::ZERO,
-        }
+        SampledSpectrum::ZERO
     }
 
     pub fn sample_le(
@@ -170,13 +188,21 @@ impl Light {
         u_dir: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
-        dispatch!(self, l => l.sample_le(u_pos, u_dir, wl))
+        match self {
+            Light::Area(l) => l.sample_le(u_pos, u_dir, wl),
+            Light::Point(l) => l.sample_le(u_dir, wl),
+            Light::Directional(l) => l.sample_le(u_pos, wl),
+        }
     }
 
     /// (per-area, per-solid-angle) densities of `sample_le` for a ray
-    /// leaving in `dir`.
+    /// leaving in `dir` (0 for the delta part of a delta light).
     pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
-        dispatch!(self, l => l.pdf_le(dir))
+        match self {
+            Light::Area(l) => l.pdf_le(dir),
+            Light::Point(l) => l.pdf_le(dir),
+            Light::Directional(l) => l.pdf_le(),
+        }
     }
 }
 
@@ -283,7 +309,9 @@ mod tests {
     #[test]
     fn triangle_points_are_uniform_and_densities_agree() {
         let light = area_light([Vec3::ZERO, Vec3::X, Vec3::Y], emitter(1.0), false);
-        let Light::Area(area) = &light;
+        let Light::Area(area) = &light else {
+            unreachable!("an area light")
+        };
         let wl = SampledWavelengths::sample_visible(0.5);
         let p_ref = Vec3::new(0.2, 0.3, 2.0);
         let mut s = crate::sampler::Sampler::new(1, 2);

@@ -25,6 +25,45 @@ pub struct SceneFile {
     pub materials: BTreeMap<String, MaterialSpec>,
     #[serde(default, rename = "shape")]
     pub shapes: Vec<ShapeSpec>,
+    /// Lights that are not shapes: point, spot and directional.
+    #[serde(default, rename = "light")]
+    pub lights: Vec<LightSpec>,
+}
+
+/// A `[[light]]`: a point, spot or directional light (area lights are
+/// shapes with `emission`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    #[serde(rename = "type")]
+    pub kind: LightKind,
+    /// point, spot: where the light is.
+    pub position: Option<[f32; 3]>,
+    /// spot: the point the cone's axis goes through.
+    pub look_at: Option<[f32; 3]>,
+    /// directional: the direction the light travels in.
+    pub direction: Option<[f32; 3]>,
+    /// point, spot: radiant intensity per nm, a spectrum.
+    pub intensity: Option<SpectrumSpec>,
+    /// point, spot: total emitted power per nm instead of `intensity`.
+    pub power: Option<SpectrumSpec>,
+    /// directional: irradiance on a surface facing the light, a spectrum.
+    pub irradiance: Option<SpectrumSpec>,
+    /// Multiplies the spectrum.
+    pub scale: Option<f32>,
+    /// spot: half-angle in degrees where the light ends (default 30).
+    pub cone_angle: Option<f32>,
+    /// spot: half-angle in degrees where it starts to fall off (default:
+    /// `cone_angle` − 5, at least 0).
+    pub falloff_start: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum LightKind {
+    Point,
+    Spot,
+    Directional,
 }
 
 #[derive(Debug, Deserialize)]

@@ -101,13 +101,15 @@ pub struct Scene {
 
 impl Scene {
     /// Assembles the runtime scene: drops degenerate triangles, builds the
-    /// BVH, stores triangles in its order and collects the area lights.
+    /// BVH, stores triangles in its order, collects the area lights and adds
+    /// the other lights (which learn the scene's bounds).
     pub fn build(
         camera: Camera,
         film: FilmSettings,
         integrator: Integrator,
         materials: Vec<Material>,
         shapes: Vec<ShapeInstance>,
+        other_lights: Vec<Light>,
     ) -> Scene {
         let mut triangles = Vec::new();
         let mut shading = Vec::new();
@@ -187,6 +189,18 @@ impl Scene {
                 )));
             }
         }
+        let bounds = bvh.bounds();
+        let (centre, radius) = if triangles.is_empty() {
+            (Vec3::ZERO, 0.0)
+        } else {
+            let c = (bounds.min + bounds.max) * 0.5;
+            (c, (bounds.max - c).length())
+        };
+        lights.extend(
+            other_lights
+                .into_iter()
+                .map(|l| l.with_scene_bounds(centre, radius)),
+        );
         Scene {
             camera,
             film,

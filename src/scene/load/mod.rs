@@ -4,6 +4,7 @@
 
 mod camera;
 mod film;
+mod lights;
 mod materials;
 mod shapes;
 mod spectra;
@@ -183,7 +184,8 @@ impl Loader {
             reflectance: Spectrum::Constant(0.5).into(),
         });
         let shapes = self.shapes(&file, &material_index, &mut materials, default_material)?;
-        let mut scene = Scene::build(camera, film, integrator, materials, shapes);
+        let lights = self.lights(&file)?;
+        let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights);
         scene.warnings = self.warnings.take();
         Ok(scene)
     }
