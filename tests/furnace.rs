@@ -149,3 +149,94 @@ fn furnace_with_dielectric_spheres() {
         }
     }
 }
+
+/// A diffuse sphere of albedo ρ under a constant environment of radiance L:
+/// being convex it sees only the sky, so every point of it has radiance ρL,
+/// and the sky seen directly is L. This exercises rays that escape the
+/// scene (the environment's `le`, weighted by MIS against its light
+/// sampling) for each strategy, and light paths that start at infinity.
+#[test]
+fn constant_environment_furnace() {
+    use prism::render::{render, RenderOptions};
+    let (albedo, radiance) = (0.6, 2.0);
+    let text = |integrator: &str| {
+        format!(
+            "[camera]\nposition = [0, 0, -3]\nlook_at = [0, 0, 0]\nfov = 50\n\
+             [film]\nresolution = [24, 24]\nspp = 64\n\
+             [integrator]\n{integrator}\n\
+             [materials.m]\ntype = \"diffuse\"\nreflectance = {albedo}\n\
+             [[shape]]\ntype = \"sphere\"\nradius = 1\nsegments = 96\nmaterial = \"m\"\n\
+             [environment]\nradiance = {radiance}\n"
+        )
+    };
+    let y_sky = prism::spectrum::cie::spectrum_to_xyz(&prism::spectrum::Spectrum::Constant(
+        radiance as f32,
+    ))
+    .y as f64;
+    // Pixels whose four corners all see the sphere, or all see the sky.
+    let probe = scene(&text("type = \"path\""));
+    let inside = |x: u32, y: u32, hit: bool| {
+        [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+            .iter()
+            .all(|(dx, dy)| {
+                let r = probe.camera.generate_ray(x as f32 + dx, y as f32 + dy);
+                probe.intersect(&r).is_some() == hit
+            })
+    };
+    let sphere: Vec<(u32, u32)> = (0..24)
+        .flat_map(|y| (0..24).map(move |x| (x, y)))
+        .filter(|&(x, y)| inside(x, y, true))
+        .collect();
+    let sky: Vec<(u32, u32)> = (0..24)
+        .flat_map(|y| (0..24).map(move |x| (x, y)))
+        .filter(|&(x, y)| inside(x, y, false))
+        .collect();
+    assert!(sphere.len() > 100 && sky.len() > 100);
+    let mean_of = |film: &prism::film::Film, pixels: &[(u32, u32)]| {
+        let (mut m, mut v) = (0.0, 0.0);
+        for &(x, y) in pixels {
+            let (a, b) = film.luminance_and_variance(x, y);
+            m += a;
+            v += b;
+        }
+        let n = pixels.len() as f64;
+        (m / n, v / (n * n))
+    };
+    for strategy in ["mis", "nee", "bsdf"] {
+        let s = scene(&text(&format!("strategy = \"{strategy}\"")));
+        let film = render_film(&s, 2);
+        for (pixels, expected, what) in [(&sphere, albedo * y_sky, "sphere"), (&sky, y_sky, "sky")]
+        {
+            let (m, v) = mean_of(&film, pixels);
+            let z = (m - expected).abs() / v.sqrt().max(1e-12);
+            assert!(
+                z < 5.0 || (m - expected).abs() < 1e-5 * expected,
+                "{strategy}, {what}: {m} ± {}, expected {expected} ({z:.1}σ)",
+                v.sqrt()
+            );
+        }
+    }
+    // Light paths from the environment reach the sphere alike (the light
+    // tracer cannot see the sky itself: no surface to connect from).
+    let s = scene(&text("type = \"light\""));
+    let runs: Vec<f64> = (1..=8)
+        .map(|seed| {
+            let options = RenderOptions {
+                seed,
+                threads: Some(2),
+                ..RenderOptions::new(&s)
+            };
+            let (film, _) = render(&s, &options).unwrap();
+            mean_of(&film, &sphere).0
+        })
+        .collect();
+    let n = runs.len() as f64;
+    let m = runs.iter().sum::<f64>() / n;
+    let var = runs.iter().map(|r| (r - m) * (r - m)).sum::<f64>() / (n - 1.0) / n;
+    let expected = albedo * y_sky;
+    assert!(
+        (m - expected).abs() < 5.0 * var.sqrt(),
+        "light tracer, sphere: {m} ± {}, expected {expected}",
+        var.sqrt()
+    );
+}

@@ -13,6 +13,7 @@
 
 mod area;
 mod directional;
+mod environment;
 mod point;
 mod selection;
 
@@ -22,6 +23,7 @@ use glam::{Vec2, Vec3};
 
 pub use area::AreaLight;
 pub use directional::DirectionalLight;
+pub use environment::UniformEnvironment;
 pub use point::{Cone, PointLight};
 pub use selection::PowerSelection;
 
@@ -102,6 +104,8 @@ pub enum Light {
     /// A point or spot light.
     Point(PointLight),
     Directional(DirectionalLight),
+    /// The same radiance from every direction at infinity.
+    Environment(UniformEnvironment),
 }
 
 impl Light {
@@ -110,7 +114,7 @@ impl Light {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Light::Area(_) => false,
+            Light::Area(_) | Light::Environment(_) => false,
             Light::Point(_) | Light::Directional(_) => true,
         }
     }
@@ -119,13 +123,14 @@ impl Light {
     /// scene's bounds (`with_scene_bounds`).
     #[inline]
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Directional(_))
+        matches!(self, Light::Directional(_) | Light::Environment(_))
     }
 
     /// The light for a scene within the sphere (`centre`, `radius`).
     pub fn with_scene_bounds(self, centre: Vec3, radius: f32) -> Self {
         match self {
             Light::Directional(l) => Light::Directional(l.with_scene(centre, radius)),
+            Light::Environment(l) => Light::Environment(l.with_scene(centre, radius)),
             other => other,
         }
     }
@@ -136,6 +141,7 @@ impl Light {
             Light::Area(l) => l.power(),
             Light::Point(l) => l.power(),
             Light::Directional(l) => l.power(),
+            Light::Environment(l) => l.power(),
         }
     }
 
@@ -150,6 +156,7 @@ impl Light {
             Light::Area(l) => l.sample_li(p_ref, u, wl),
             Light::Point(l) => l.sample_li(p_ref, wl),
             Light::Directional(l) => l.sample_li(wl),
+            Light::Environment(l) => l.sample_li(u, wl),
         }
     }
 
@@ -161,6 +168,7 @@ impl Light {
     pub fn pdf_li(&self, p_ref: Vec3, _wi: Vec3, p_light: Option<Vec3>) -> f32 {
         match (self, p_light) {
             (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
+            (Light::Environment(l), None) => l.pdf_li(),
             _ => 0.0,
         }
     }
@@ -171,15 +179,20 @@ impl Light {
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Area(l) => l.l(uv, w, wl),
-            Light::Point(_) | Light::Directional(_) => SampledSpectrum::ZERO,
+            Light::Point(_) | Light::Directional(_) | Light::Environment(_) => {
+                SampledSpectrum::ZERO
+            }
         }
     }
 
     /// Radiance arriving along an escaped ray of direction `dir` from a
     /// light at infinity that has extent (a directional light has none).
     #[inline]
-    pub fn le(&self, _dir: Vec3, _wl: &SampledWavelengths) -> SampledSpectrum {
-        SampledSpectrum::ZERO
+    pub fn le(&self, _dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Environment(l) => l.le(wl),
+            _ => SampledSpectrum::ZERO,
+        }
     }
 
     pub fn sample_le(
@@ -192,6 +205,7 @@ impl Light {
             Light::Area(l) => l.sample_le(u_pos, u_dir, wl),
             Light::Point(l) => l.sample_le(u_dir, wl),
             Light::Directional(l) => l.sample_le(u_pos, wl),
+            Light::Environment(l) => l.sample_le(u_pos, u_dir, wl),
         }
     }
 
@@ -202,6 +216,7 @@ impl Light {
             Light::Area(l) => l.pdf_le(dir),
             Light::Point(l) => l.pdf_le(dir),
             Light::Directional(l) => l.pdf_le(),
+            Light::Environment(l) => l.pdf_le(),
         }
     }
 }

@@ -28,6 +28,18 @@ pub struct SceneFile {
     /// Lights that are not shapes: point, spot and directional.
     #[serde(default, rename = "light")]
     pub lights: Vec<LightSpec>,
+    /// Light from every direction at infinity.
+    pub environment: Option<EnvironmentSpec>,
+}
+
+/// The `[environment]` table: for now a constant radiance.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSpec {
+    /// Radiance from every direction, a spectrum.
+    pub radiance: SpectrumSpec,
+    /// Multiplies `radiance`.
+    pub scale: Option<f32>,
 }
 
 /// A `[[light]]`: a point, spot or directional light (area lights are

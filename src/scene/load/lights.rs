@@ -1,4 +1,5 @@
-//! `[[light]]` tables: point, spot and directional lights.
+//! `[[light]]` tables (point, spot and directional lights) and the
+//! `[environment]`.
 
 use std::f32::consts::PI;
 
@@ -6,18 +7,30 @@ use glam::Vec3;
 
 use super::spectra::Role;
 use super::{Loader, MAX_COORDINATE};
-use crate::light::{Cone, DirectionalLight, Light, PointLight};
+use crate::light::{Cone, DirectionalLight, Light, PointLight, UniformEnvironment};
 use crate::scene::format::{LightKind, LightSpec, SceneFile};
 use crate::scene::SceneError;
 use crate::spectrum::Spectrum;
 
 impl Loader {
     pub(super) fn lights(&self, file: &SceneFile) -> Result<Vec<Light>, SceneError> {
-        file.lights
+        let mut lights = file
+            .lights
             .iter()
             .enumerate()
             .map(|(i, spec)| self.light(spec, file, &format!("light[{i}]")))
-            .collect()
+            .collect::<Result<Vec<_>, _>>()?;
+        if let Some(env) = &file.environment {
+            let scale = env.scale.unwrap_or(1.0);
+            if !(scale >= 0.0) {
+                return Err(self.error("`environment.scale` must not be negative"));
+            }
+            let radiance = self
+                .spectrum(&env.radiance, Role::Emission, file, "environment.radiance")?
+                .scaled(scale);
+            lights.push(Light::Environment(UniformEnvironment::new(radiance)));
+        }
+        Ok(lights)
     }
 
     fn light(&self, spec: &LightSpec, file: &SceneFile, key: &str) -> Result<Light, SceneError> {
