@@ -230,3 +230,26 @@ fn max_depth_moved_to_the_integrator() {
     let e = error(&format!("{CAMERA}[integrator]\ntype = \"bdpt\"\n"));
     assert!(e.contains("unknown variant `bdpt`"), "{e}");
 }
+
+#[test]
+fn a_scene_without_light_is_warned_about() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dark = load_str(
+        &format!("{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\n"),
+        dir,
+    )
+    .unwrap();
+    assert!(
+        dark.warnings.iter().any(|w| w.contains("no light")),
+        "{:?}",
+        dark.warnings
+    );
+    // Built-in spheres have no degenerate triangles to drop.
+    assert_eq!(dark.degenerate_triangles, 0);
+    let lit = load_str(
+        &format!("{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n"),
+        dir,
+    )
+    .unwrap();
+    assert!(lit.warnings.is_empty(), "{:?}", lit.warnings);
+}

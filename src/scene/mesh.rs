@@ -34,7 +34,7 @@ impl Mesh {
         let mut positions = Vec::new();
         let mut normals = Vec::new();
         for r in 0..=rings {
-            // Exact poles, so that their fans are cleanly degenerate (dropped).
+            // Exact poles: the first and last rings are single points.
             let (sin_t, cos_t) = match r {
                 0 => (0.0, 1.0),
                 _ if r == rings => (0.0, -1.0),
@@ -53,9 +53,14 @@ impl Mesh {
             for s in 0..segments {
                 let (a, b) = (r * row + s, r * row + s + 1);
                 let (c, d) = (a + row, b + row);
-                // Degenerate triangles at the poles are dropped by the scene.
-                indices.push([a, b, d]);
-                indices.push([a, d, c]);
+                // At the poles one triangle of each quad has no area: a
+                // fan of triangles remains.
+                if r != 0 {
+                    indices.push([a, b, d]);
+                }
+                if r != rings - 1 {
+                    indices.push([a, d, c]);
+                }
             }
         }
         Mesh {
@@ -124,10 +129,10 @@ mod tests {
         for f in &m.indices {
             let p = f.map(|i| m.positions[i as usize]);
             let n = (p[1] - p[0]).cross(p[2] - p[0]);
-            if n.length() > 0.0 {
-                assert!(n.dot((p[0] + p[1] + p[2]) / 3.0 - c) > 0.0, "{p:?} {n}");
-                area += 0.5 * n.length();
-            }
+            // No degenerate triangles, not even at the poles.
+            assert!(n.length() > 0.0, "degenerate {p:?}");
+            assert!(n.dot((p[0] + p[1] + p[2]) / 3.0 - c) > 0.0, "{p:?} {n}");
+            area += 0.5 * n.length();
         }
         // A 16-segment sphere's area is a little under 4πr².
         assert!(

@@ -186,6 +186,12 @@ impl Loader {
         let shapes = self.shapes(&file, &material_index, &mut materials, default_material)?;
         let lights = self.lights(&file)?;
         let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights);
+        if scene.lights.is_empty() {
+            self.warn(
+                "the scene has no light (no shape with `emission`, no [[light]], no [environment]) \
+                 or none that emits: the image will be black",
+            );
+        }
         scene.warnings = self.warnings.take();
         Ok(scene)
     }
