@@ -7,6 +7,8 @@ use glam::{Vec3, Vec4};
 
 use super::ior_stack::{Crossing, IorStack, Medium};
 use super::PathCounters;
+use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::Ray;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -27,6 +29,49 @@ pub enum Meeting {
         eta: SampledSpectrum,
         medium: Option<(Medium, bool)>,
     },
+}
+
+/// Where a ray goes next.
+#[derive(Clone, Copy, Debug)]
+pub enum Next {
+    /// A real surface, and what it is to the path (see [`Meeting::Real`]).
+    Surface {
+        hit: SurfaceHit,
+        eta: SampledSpectrum,
+        medium: Option<(Medium, bool)>,
+    },
+    /// The ray left the scene.
+    Escaped,
+    /// More than [`MAX_FALSE_INTERSECTIONS`] false intersections in a row.
+    Lost,
+}
+
+/// Traces `ray` to the next real surface, crossing false intersections
+/// (the stack enters and leaves their media). On return `ray` is the
+/// segment that reached the surface or escaped; every ray traced counts.
+pub fn trace(
+    scene: &Scene,
+    ray: &mut Ray,
+    stack: &mut IorStack,
+    wl: &SampledWavelengths,
+    counters: &mut PathCounters,
+) -> Next {
+    for _ in 0..=MAX_FALSE_INTERSECTIONS {
+        counters.rays += 1;
+        let Some(hit) = scene.intersect(ray) else {
+            return Next::Escaped;
+        };
+        match meet(scene, &hit, ray.dir, stack, wl, counters) {
+            Meeting::Pass => {
+                *ray = Ray::new(
+                    offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
+                    ray.dir,
+                );
+            }
+            Meeting::Real { eta, medium } => return Next::Surface { hit, eta, medium },
+        }
+    }
+    Next::Lost
 }
 
 /// The index of refraction of a dielectric material at the path's wavelengths.

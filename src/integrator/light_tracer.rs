@@ -13,7 +13,7 @@
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::interface::{meet, scatter, Meeting, MAX_FALSE_INTERSECTIONS};
+use super::interface::{scatter, trace, Next};
 use super::ior_stack::IorStack;
 use super::{PathCounters, PixelSample};
 use crate::camera::CameraSample;
@@ -88,27 +88,13 @@ impl LightTracer {
         let mut beta = les.le * (cos / (pmf * les.pdf_pos * les.pdf_dir));
         let mut ray = Ray::new(offset_ray_origin(lp.p, lp.p_err, lp.n, les.dir), les.dir);
         let mut stack = IorStack::default();
-        let (mut depth, mut false_hits) = (0, 0);
+        let mut depth = 0;
         while depth < self.max_depth {
-            counters.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
+            let Next::Surface { hit, eta, medium } =
+                trace(scene, &mut ray, &mut stack, &wl, counters)
+            else {
                 break;
             };
-            let (eta, medium) = match meet(scene, &hit, ray.dir, &mut stack, &wl, counters) {
-                Meeting::Pass => {
-                    false_hits += 1;
-                    if false_hits > MAX_FALSE_INTERSECTIONS {
-                        break;
-                    }
-                    ray = Ray::new(
-                        offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
-                        ray.dir,
-                    );
-                    continue;
-                }
-                Meeting::Real { eta, medium } => (eta, medium),
-            };
-            false_hits = 0;
             depth += 1;
             let wo = -ray.dir;
             let material = &scene.materials[hit.material as usize];

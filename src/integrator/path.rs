@@ -3,7 +3,7 @@
 //! (power heuristic), and Russian roulette. Each path carries the stack of
 //! dielectric media it is inside.
 
-use super::interface::{meet, scatter, Meeting, MAX_FALSE_INTERSECTIONS};
+use super::interface::{scatter, trace, Next};
 use super::ior_stack::IorStack;
 use super::{power_heuristic, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
@@ -46,7 +46,6 @@ impl PathTracer {
         sampler: &mut Sampler,
         counters: &mut PathCounters,
     ) -> SampledSpectrum {
-        let strategy = self.strategy;
         let mut l = SampledSpectrum::ZERO;
         let mut beta = SampledSpectrum::ONE;
         // The camera ray sees emitters as a specular bounce would: no light sampling competes.
@@ -57,59 +56,32 @@ impl PathTracer {
         // Product of η'² over transmissions: radiance scales by 1/η'² entering a
         // denser medium, which Russian roulette must not mistake for a dim path.
         let mut eta_scale = 1.0f32;
-        let mut false_hits = 0;
         loop {
-            counters.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
-                // Escaped: only lights at infinity are seen.
-                for (i, light) in scene.lights.infinite() {
-                    let le = light.le(ray.dir, wl);
-                    let weight = if specular || strategy == Strategy::Bsdf {
-                        1.0
-                    } else if strategy == Strategy::Nee {
-                        0.0
-                    } else {
-                        let light_pdf =
-                            scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None);
-                        power_heuristic(prev_bsdf_pdf, light_pdf)
-                    };
-                    l += beta * le * weight;
+            let (hit, eta, medium) = match trace(scene, &mut ray, &mut stack, wl, counters) {
+                Next::Surface { hit, eta, medium } => (hit, eta, medium),
+                Next::Escaped => {
+                    // Only lights at infinity are seen.
+                    for (i, light) in scene.lights.infinite() {
+                        let le = light.le(ray.dir, wl);
+                        let weight = self.emission_weight(specular, prev_bsdf_pdf, || {
+                            scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None)
+                        });
+                        l += beta * le * weight;
+                    }
+                    break;
                 }
-                break;
+                Next::Lost => break,
             };
             let wo = -ray.dir;
             let material = &scene.materials[hit.material as usize];
-
-            // Dielectrics: which media meet here, or is the surface not there?
-            let (eta, medium) = match meet(scene, &hit, ray.dir, &mut stack, wl, counters) {
-                Meeting::Pass => {
-                    false_hits += 1;
-                    if false_hits > MAX_FALSE_INTERSECTIONS {
-                        break;
-                    }
-                    ray = Ray::new(
-                        offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
-                        ray.dir,
-                    );
-                    continue;
-                }
-                Meeting::Real { eta, medium } => (eta, medium),
-            };
-            false_hits = 0;
 
             if let Some(i) = hit.light {
                 let light = scene.lights.get(i);
                 let le = light.l(hit.uv, wo, wl);
                 if le != SampledSpectrum::ZERO {
-                    let weight = if specular || strategy == Strategy::Bsdf {
-                        1.0
-                    } else if strategy == Strategy::Nee {
-                        0.0
-                    } else {
-                        let light_pdf =
-                            scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p));
-                        power_heuristic(prev_bsdf_pdf, light_pdf)
-                    };
+                    let weight = self.emission_weight(specular, prev_bsdf_pdf, || {
+                        scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p))
+                    });
                     l += beta * le * weight;
                 }
             }
@@ -126,7 +98,7 @@ impl PathTracer {
             };
             let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
 
-            if strategy != Strategy::Bsdf && !bsdf.is_specular() {
+            if self.strategy != Strategy::Bsdf && !bsdf.is_specular() {
                 l += beta * self.sample_direct(scene, &hit, wo, &bsdf, wl, sampler, counters);
             } else {
                 // Keep the dimensions of later bounces aligned across samples.
@@ -166,6 +138,25 @@ impl PathTracer {
             }
         }
         l
+    }
+
+    /// The weight of emission that the path found by BSDF sampling: all of
+    /// it after a Dirac bounce or with BSDF sampling alone, none when light
+    /// sampling alone counts it, else MIS against the light's density
+    /// (`light_pdf`, computed only then).
+    fn emission_weight(
+        &self,
+        specular: bool,
+        bsdf_pdf: f32,
+        light_pdf: impl FnOnce() -> f32,
+    ) -> f32 {
+        if specular || self.strategy == Strategy::Bsdf {
+            1.0
+        } else if self.strategy == Strategy::Nee {
+            0.0
+        } else {
+            power_heuristic(bsdf_pdf, light_pdf())
+        }
     }
 
     /// Next-event estimation: light arriving directly from a point sampled on
