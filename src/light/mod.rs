@@ -17,6 +17,7 @@ mod environment;
 mod point;
 mod selection;
 
+use std::f32::consts::PI;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
@@ -27,6 +28,7 @@ pub use environment::UniformEnvironment;
 pub use point::{Cone, PointLight};
 pub use selection::PowerSelection;
 
+use crate::geometry::Frame;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 use crate::texture::TextureRef;
 
@@ -55,6 +57,44 @@ impl Emitter {
             Some(t) => le * t.spectrum(uv, wl),
             None => le,
         }
+    }
+}
+
+/// The scene's bounding sphere, as lights at infinity see it: light paths
+/// from them start on a disc of its radius that faces their direction, one
+/// radius back from the centre (outside the scene).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneSphere {
+    pub centre: Vec3,
+    pub radius: f32,
+}
+
+impl SceneSphere {
+    /// The area of the disc (the scene's cross-section).
+    pub fn disc_area(&self) -> f32 {
+        PI * self.radius * self.radius
+    }
+
+    /// Density of `disc_point` per unit area (0 for an empty scene).
+    pub fn disc_pdf(&self) -> f32 {
+        if self.radius > 0.0 {
+            1.0 / self.disc_area()
+        } else {
+            0.0
+        }
+    }
+
+    /// A uniform point of the disc facing `dir` (unit); None for an empty
+    /// scene.
+    pub fn disc_point(&self, dir: Vec3, u: (f32, f32)) -> Option<Vec3> {
+        if !(self.radius > 0.0) {
+            return None;
+        }
+        let r = self.radius * u.0.sqrt();
+        let phi = 2.0 * PI * u.1;
+        let on_disc =
+            Frame::from_normal(dir).to_world(Vec3::new(r * phi.cos(), r * phi.sin(), 0.0));
+        Some(self.centre - dir * self.radius + on_disc)
     }
 }
 
@@ -126,11 +166,11 @@ impl Light {
         matches!(self, Light::Directional(_) | Light::Environment(_))
     }
 
-    /// The light for a scene within the sphere (`centre`, `radius`).
-    pub fn with_scene_bounds(self, centre: Vec3, radius: f32) -> Self {
+    /// The light for a scene within `sphere`.
+    pub fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
         match self {
-            Light::Directional(l) => Light::Directional(l.with_scene(centre, radius)),
-            Light::Environment(l) => Light::Environment(l.with_scene(centre, radius)),
+            Light::Directional(l) => Light::Directional(l.with_scene(sphere)),
+            Light::Environment(l) => Light::Environment(l.with_scene(sphere)),
             other => other,
         }
     }

@@ -18,7 +18,7 @@ use crate::camera::Camera;
 use crate::film::FilmSettings;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
 use crate::integrator::Integrator;
-use crate::light::{AreaLight, Emitter, Light, LightSet};
+use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
 use crate::material::Material;
 use crate::spectrum::Spectrum;
 use crate::texture::TextureRef;
@@ -190,16 +190,19 @@ impl Scene {
             }
         }
         let bounds = bvh.bounds();
-        let (centre, radius) = if triangles.is_empty() {
-            (Vec3::ZERO, 0.0)
+        let sphere = if triangles.is_empty() {
+            SceneSphere::default()
         } else {
-            let c = (bounds.min + bounds.max) * 0.5;
-            (c, (bounds.max - c).length())
+            let centre = (bounds.min + bounds.max) * 0.5;
+            SceneSphere {
+                centre,
+                radius: (bounds.max - centre).length(),
+            }
         };
         lights.extend(
             other_lights
                 .into_iter()
-                .map(|l| l.with_scene_bounds(centre, radius)),
+                .map(|l| l.with_scene_bounds(sphere)),
         );
         Scene {
             camera,
