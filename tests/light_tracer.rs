@@ -48,18 +48,12 @@ fn block_estimates(scene: &Scene, spp: u32, runs: u64) -> Vec<(f64, f64)> {
     out
 }
 
-/// Both integrators, 16 independent runs each; every block within 5σ.
-/// (With 15 degrees of freedom per variance, |t| > 5 has probability
-/// 1.6e-4 per block.)
-fn assert_integrators_agree(text_without_integrator: &str, what: &str) {
-    let path = common::scene(&format!(
-        "{text_without_integrator}\n[integrator]\ntype = \"path\"\n"
-    ));
-    let light = common::scene(&format!(
-        "{text_without_integrator}\n[integrator]\ntype = \"light\"\n"
-    ));
-    let a = block_estimates(&path, 16, 16);
-    let b = block_estimates(&light, 16, 16);
+/// The same scene for both integrators, 16 independent runs each; every
+/// block within 5σ. (With 15 degrees of freedom per variance, |t| > 5 has
+/// probability 1.6e-4 per block.)
+fn assert_scenes_agree(path: &Scene, light: &Scene, what: &str) {
+    let a = block_estimates(path, 16, 16);
+    let b = block_estimates(light, 16, 16);
     let mut worst = 0.0f64;
     for (i, (pa, pb)) in a.iter().zip(&b).enumerate() {
         let z = common::z_score(*pa, *pb);
@@ -73,6 +67,16 @@ fn assert_integrators_agree(text_without_integrator: &str, what: &str) {
         "{what}: largest block difference {worst:.2}σ over {} blocks",
         a.len()
     );
+}
+
+/// `assert_scenes_agree` for a scene file without an `[integrator]` table.
+fn assert_integrators_agree(text_without_integrator: &str, what: &str) {
+    let with = |kind: &str| {
+        common::scene(&format!(
+            "{text_without_integrator}\n[integrator]\ntype = \"{kind}\"\n"
+        ))
+    };
+    assert_scenes_agree(&with("path"), &with("light"), what);
 }
 
 fn cornell_box() -> String {
@@ -201,16 +205,7 @@ emission = 4
         )
         .unwrap()
     };
-    let (path, light) = (load("path"), load("light"));
-    let a = block_estimates(&path, 16, 16);
-    let b = block_estimates(&light, 16, 16);
-    let mut worst = 0.0f64;
-    for (i, (pa, pb)) in a.iter().zip(&b).enumerate() {
-        let z = common::z_score(*pa, *pb);
-        worst = worst.max(z);
-        assert!(z < 5.0, "block {i}: path {pa:?}, light {pb:?}: {z:.1}σ");
-    }
-    eprintln!("tilted shading normals: largest block difference {worst:.2}σ");
+    assert_scenes_agree(&load("path"), &load("light"), "tilted shading normals");
 }
 
 #[test]
