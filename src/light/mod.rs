@@ -18,7 +18,6 @@ mod point;
 mod selection;
 
 use std::f32::consts::PI;
-use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
@@ -318,14 +317,18 @@ impl LightSet {
     }
 }
 
-/// An area light from a triangle and an emitter (for tests and tools).
-pub fn area_light(tri: [Vec3; 3], emitter: Emitter, two_sided: bool) -> Light {
-    Light::Area(AreaLight::new(tri, None, Arc::new(emitter), two_sided))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn area_light(tri: [Vec3; 3], emitter: Emitter, two_sided: bool) -> Light {
+        Light::Area(AreaLight::new(
+            tri,
+            None,
+            std::sync::Arc::new(emitter),
+            two_sided,
+        ))
+    }
 
     fn emitter(v: f32) -> Emitter {
         Emitter {

@@ -61,10 +61,6 @@ impl PointLight {
         }
     }
 
-    pub fn position(&self) -> Vec3 {
-        self.position
-    }
-
     /// Intensity towards `w` (unit, away from the light).
     fn intensity(&self, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         let i = self.intensity.sample(wl);

@@ -219,15 +219,6 @@ impl Bsdf {
         !self.flags().has_non_specular()
     }
 
-    pub fn lobe(&self) -> &Lobe {
-        &self.lobe
-    }
-
-    /// The shading normal (the local frame's +z).
-    pub fn shading_normal(&self) -> Vec3 {
-        self.frame.n
-    }
-
     /// |cos| between `w` and the shading normal, for the rendering equation.
     #[inline]
     pub fn cos_theta(&self, w: Vec3) -> f32 {
