@@ -72,8 +72,10 @@ impl LightTracer {
         };
         let lp = les.point;
 
-        // The light itself, seen by the camera.
-        if let Some(cs) = scene.camera.sample_wi(lp.p) {
+        // The light itself, seen by the camera: only a surface can be (a
+        // point, a direction or the sky has no `l`).
+        let seen = !light.is_delta() && !light.is_infinite();
+        if let Some(cs) = scene.camera.sample_wi(lp.p).filter(|_| seen) {
             let le = light.l(lp.uv, cs.wi, &wl);
             let cos = lp.n.dot(cs.wi).abs();
             if le != SampledSpectrum::ZERO
