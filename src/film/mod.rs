@@ -54,6 +54,23 @@ impl SpectralLayout {
         }
         Some((((lambda - self.min) / self.width()) as usize).min(self.count as usize - 1))
     }
+
+    /// One sample's spectral contributions, (bucket, radiance per nm), for
+    /// its live wavelengths (terminated ones, pdf 0, contribute nothing).
+    fn contributions(
+        self,
+        l: SampledSpectrum,
+        wl: &SampledWavelengths,
+    ) -> impl Iterator<Item = (u32, f32)> + '_ {
+        let per_nm = 1.0 / (4.0 * self.width());
+        (0..4).filter_map(move |k| {
+            if !(wl.pdf[k] > 0.0) {
+                return None;
+            }
+            let b = self.bucket(wl.lambda[k])?;
+            Some((b as u32, l[k] / wl.pdf[k] * per_nm))
+        })
+    }
 }
 
 /// Running sums for one pixel.
@@ -124,15 +141,8 @@ impl FilmTile {
         }
         let i = y * self.film_width + x;
         self.splat_xyz.push((i, cie::sampled_to_xyz(l, wl)));
-        let per_nm = 1.0 / (4.0 * self.layout.width());
-        for k in 0..4 {
-            if wl.pdf[k] > 0.0 {
-                if let Some(b) = self.layout.bucket(wl.lambda[k]) {
-                    self.splat_spectral
-                        .push((i, b as u32, l[k] / wl.pdf[k] * per_nm));
-                }
-            }
-        }
+        let entries = self.layout.contributions(l, wl).map(|(b, v)| (i, b, v));
+        self.splat_spectral.extend(entries);
     }
 
     /// Adds one sample's radiance to the pixel at film position (x, y).
@@ -148,15 +158,11 @@ impl FilmTile {
         px.xyz += xyz;
         px.y_squared += xyz.y * xyz.y;
         px.samples += 1;
-        let per_nm = 1.0 / (4.0 * self.layout.width());
-        for k in 0..4 {
-            if wl.pdf[k] > 0.0 {
-                if let Some(b) = self.layout.bucket(wl.lambda[k]) {
-                    self.spectral
-                        .push((i as u32, b as u32, l[k] / wl.pdf[k] * per_nm));
-                }
-            }
-        }
+        let entries = self
+            .layout
+            .contributions(l, wl)
+            .map(|(b, v)| (i as u32, b, v));
+        self.spectral.extend(entries);
     }
 
     /// Counts a sample that was dropped (non-finite): it adds zero.
