@@ -19,12 +19,25 @@ pub struct Ray {
     pub t_max: f32,
 }
 
+/// Shadow rays stop this fraction short of their (already offset) target.
+const SHADOW_EPSILON: f32 = 1e-6;
+
 impl Ray {
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         Self {
             origin,
             dir,
             t_max: f32::INFINITY,
+        }
+    }
+
+    /// The segment from `origin` to just short of `target`, for visibility
+    /// tests (`dir` is not normalised: t runs from 0 to 1).
+    pub fn towards(origin: Vec3, target: Vec3) -> Self {
+        Self {
+            origin,
+            dir: target - origin,
+            t_max: 1.0 - SHADOW_EPSILON,
         }
     }
 }

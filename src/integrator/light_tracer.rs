@@ -26,9 +26,6 @@ use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 use glam::Vec3;
 
-/// Connections stop this fraction short of the camera.
-const SHADOW_EPSILON: f32 = 1e-6;
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LightTracer {
     /// Most bounces between the light and the camera.
@@ -156,11 +153,7 @@ impl LightTracer {
         counters: &mut PathCounters,
     ) -> bool {
         let origin = offset_ray_origin(p, p_err, n, cs.wi);
-        let shadow = Ray {
-            origin,
-            dir: scene.camera.position - origin,
-            t_max: 1.0 - SHADOW_EPSILON,
-        };
+        let shadow = Ray::towards(origin, scene.camera.position);
         counters.rays += 1;
         !scene.occluded(&shadow)
     }

@@ -13,9 +13,6 @@ use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
-/// Shadow rays stop this fraction short of the (already offset) light point.
-const SHADOW_EPSILON: f32 = 1e-6;
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PathTracer {
     /// Most bounces: 1 is direct lighting only.
@@ -191,14 +188,7 @@ impl PathTracer {
         }
         let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, wi);
         let shadow = match ls.point {
-            Some(lp) => {
-                let target = offset_ray_origin(lp.p, lp.p_err, lp.n, -wi);
-                Ray {
-                    origin,
-                    dir: target - origin,
-                    t_max: 1.0 - SHADOW_EPSILON,
-                }
-            }
+            Some(lp) => Ray::towards(origin, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi)),
             None => Ray::new(origin, wi),
         };
         counters.rays += 1;
