@@ -58,6 +58,7 @@ impl Loader {
         }
         Ok(Camera::look_at(pos, at, up, fov, s.width, s.height))
     }
+
     /// The camera of a glTF file: the one called `camera.name`, or the first.
     pub(super) fn asset_camera(
         &self,

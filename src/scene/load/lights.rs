@@ -56,14 +56,12 @@ impl Loader {
             ],
             LightKind::Directional => &["direction", "irradiance"],
         };
-        for (name, present) in given {
-            if present && !allowed.contains(&name) {
-                return Err(self.error(format!(
-                    "`{key}.{name}` does not apply to a light of type {:?}",
-                    spec.kind
-                )));
-            }
-        }
+        self.only_keys(
+            key,
+            &format!("a light of type {:?}", spec.kind),
+            &given,
+            allowed,
+        )?;
         let scale = spec.scale.unwrap_or(1.0);
         if !(scale >= 0.0) {
             return Err(self.error(format!("`{key}.scale` must not be negative")));

@@ -91,6 +91,7 @@ impl Loader {
             },
         })
     }
+
     pub(super) fn ior(
         &self,
         spec: &IorSpec,

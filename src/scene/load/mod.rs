@@ -152,6 +152,24 @@ impl Loader {
         }
     }
 
+    /// Rejects the keys given (`given`: name, present) that `allowed` does
+    /// not list for this kind of table (`kind`, e.g. "a shape of type Quad").
+    fn only_keys(
+        &self,
+        key: &str,
+        kind: &str,
+        given: &[(&str, bool)],
+        allowed: &[&str],
+    ) -> Result<(), SceneError> {
+        match given
+            .iter()
+            .find(|(name, present)| *present && !allowed.contains(name))
+        {
+            Some((name, _)) => Err(self.error(format!("`{key}.{name}` does not apply to {kind}"))),
+            None => Ok(()),
+        }
+    }
+
     fn warn(&self, message: impl Into<String>) {
         self.warnings.borrow_mut().push(message.into());
     }

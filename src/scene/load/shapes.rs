@@ -112,6 +112,7 @@ impl Loader {
         }
         Ok(out)
     }
+
     /// Reads an OBJ or glTF file once (later instances reuse it) and
     /// reports what it ignored.
     pub(super) fn asset(
@@ -145,6 +146,7 @@ impl Loader {
             .insert(path.to_path_buf(), asset.clone());
         Ok(asset)
     }
+
     /// The meshes of an OBJ or glTF shape with their scene materials
     /// (`None`: the scene default) and emission.
     #[allow(clippy::type_complexity)]
@@ -224,6 +226,7 @@ impl Loader {
         }
         Ok(out)
     }
+
     /// Applies a shape's transform and winding flip, and checks the result.
     pub(super) fn place(
         &self,
@@ -259,6 +262,7 @@ impl Loader {
         }
         Ok(())
     }
+
     /// Rejects keys that do not apply to the shape's type.
     pub(super) fn only(
         &self,
@@ -276,16 +280,10 @@ impl Loader {
             ("segments", shape.segments.is_some()),
             ("smooth", shape.smooth.is_some()),
         ];
-        for (name, present) in given {
-            if present && !allowed.contains(&name) {
-                return Err(self.error(format!(
-                    "`{key}.{name}` does not apply to a shape of type {:?}",
-                    shape.kind
-                )));
-            }
-        }
-        Ok(())
+        let kind = format!("a shape of type {:?}", shape.kind);
+        self.only_keys(key, &kind, &given, allowed)
     }
+
     /// The mesh of a built-in shape (quad or sphere).
     pub(super) fn mesh(&self, shape: &ShapeSpec, key: &str) -> Result<Mesh, SceneError> {
         let missing = |name: &str| {
@@ -321,6 +319,7 @@ impl Loader {
             }
         })
     }
+
     pub(super) fn transform(&self, t: &TransformSpec, key: &str) -> Result<Mat4, SceneError> {
         let m = if let Some(m) = t.matrix {
             if t.scale.is_some() || t.rotate.is_some() || t.translate.is_some() {

@@ -93,6 +93,7 @@ impl Loader {
         self.check_range(&spectrum, role, key)?;
         Ok(spectrum)
     }
+
     /// A built-in illuminant, normalised to luminance Y = 1.
     pub(super) fn builtin(
         &self,
@@ -116,6 +117,7 @@ impl Loader {
             ))),
         }
     }
+
     pub(super) fn table(
         &self,
         l: Vec<f32>,
@@ -138,6 +140,7 @@ impl Loader {
         }
         Ok(Spectrum::Table(TabulatedSpectrum::new(l, v)))
     }
+
     pub(super) fn check_range(
         &self,
         s: &Spectrum,
