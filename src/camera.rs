@@ -122,6 +122,23 @@ impl Camera {
         })
     }
 
+    /// Solid-angle density with which `generate_ray` (at a uniform raster
+    /// position) sends a ray along `dir` (unit): 1 / (A cos³θ), zero
+    /// outside the image.
+    pub fn pdf_we(&self, dir: Vec3) -> f32 {
+        let cos = dir.dot(self.forward);
+        if !(cos > 0.0) {
+            return 0.0;
+        }
+        let aspect = self.width as f32 / self.height as f32;
+        let (sx, sy) = (dir.dot(self.right) / cos, dir.dot(self.up) / cos);
+        if sx.abs() > self.tan_half_fov * aspect || sy.abs() > self.tan_half_fov {
+            return 0.0;
+        }
+        let area = 4.0 * self.tan_half_fov * self.tan_half_fov * aspect;
+        1.0 / (area * cos * cos * cos)
+    }
+
     /// The same camera for another image size (the vertical field of view is kept).
     pub fn with_resolution(mut self, width: u32, height: u32) -> Self {
         self.width = width;

@@ -62,8 +62,8 @@ enum Command {
         #[arg(long, value_enum)]
         tonemap: Option<TonemapArg>,
         /// Integrator (overrides integrator.type): path tracing from the
-        /// camera, or light tracing (paths from the lights, for caustics
-        /// seen directly).
+        /// camera, light tracing (paths from the lights, for caustics seen
+        /// directly), or bidirectional path tracing (both, joined by MIS).
         #[arg(long, value_enum)]
         integrator: Option<IntegratorKind>,
         /// Direct-lighting strategy of the path tracer (overrides integrator.strategy).

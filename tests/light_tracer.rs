@@ -1,206 +1,44 @@
 //! The light tracer against the path tracer: the same image within error
 //! bars, on the Cornell Box, on a scene of rough glass, rough metal and a
-//! smoothly shaded sphere, and on a floor whose shading normals lean off
-//! its facets (where importance needs Veach's correction); and the same
-//! image for any number of threads.
+//! smoothly shaded sphere, on a floor whose shading normals lean off its
+//! facets (where importance needs Veach's correction) and under delta
+//! lights; and the same image for any number of threads.
 //!
 //! The 1/η'² of refraction is not visible here: with the camera and the
 //! lights outside every dielectric, a path enters and leaves each medium and
 //! the factors cancel (generalised reciprocity). tests/bsdf.rs checks the
-//! adjoint BSDF directly.
+//! adjoint BSDF directly, and tests/bdpt.rs a light inside glass.
 
 mod common;
 
-use prism::film::Film;
-use prism::render::{render, RenderOptions};
-use prism::scene::Scene;
-
-/// `runs` renders with seeds 1..=runs: per 8 × 8 block, the mean luminance
-/// over the runs and the variance of that mean (from the runs' spread:
-/// splats make per-pixel variances meaningless).
-fn block_estimates(scene: &Scene, spp: u32, runs: u64) -> Vec<(f64, f64)> {
-    let films: Vec<Film> = (1..=runs)
-        .map(|seed| {
-            let options = RenderOptions {
-                seed,
-                threads: Some(2),
-                ..RenderOptions::with_spp(scene, spp)
-            };
-            let (film, stats) = render(scene, &options).unwrap();
-            assert_eq!(stats.non_finite, 0);
-            film
-        })
-        .collect();
-    let (w, h) = (scene.film.width, scene.film.height);
-    let mut out = Vec::new();
-    for y0 in (0..h).step_by(8) {
-        for x0 in (0..w).step_by(8) {
-            let means: Vec<f64> = films
-                .iter()
-                .map(|f| common::region_mean(f, x0, y0, (x0 + 8).min(w), (y0 + 8).min(h)).0)
-                .collect();
-            let n = means.len() as f64;
-            let mean = means.iter().sum::<f64>() / n;
-            let var = means.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / (n - 1.0);
-            out.push((mean, var / n));
-        }
-    }
-    out
-}
-
-/// The same scene for both integrators, 16 independent runs each; every
-/// block within 5σ. (With 15 degrees of freedom per variance, |t| > 5 has
-/// probability 1.6e-4 per block.)
-fn assert_scenes_agree(path: &Scene, light: &Scene, what: &str) {
-    let a = block_estimates(path, 16, 16);
-    let b = block_estimates(light, 16, 16);
-    let mut worst = 0.0f64;
-    for (i, (pa, pb)) in a.iter().zip(&b).enumerate() {
-        let z = common::z_score(*pa, *pb);
-        worst = worst.max(z);
-        assert!(
-            z < 5.0,
-            "{what}, block {i}: path {pa:?}, light {pb:?}: {z:.1}σ"
-        );
-    }
-    eprintln!(
-        "{what}: largest block difference {worst:.2}σ over {} blocks",
-        a.len()
-    );
-}
-
-/// `assert_scenes_agree` for a scene file without an `[integrator]` table.
-fn assert_integrators_agree(text_without_integrator: &str, what: &str) {
-    let with = |kind: &str| {
-        common::scene(&format!(
-            "{text_without_integrator}\n[integrator]\ntype = \"{kind}\"\n"
-        ))
-    };
-    assert_scenes_agree(&with("path"), &with("light"), what);
-}
-
-fn cornell_box() -> String {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/cornell-box.toml"
-    ))
-    .unwrap();
-    let mut table: toml::Table = toml::from_str(&text).unwrap();
-    table.remove("integrator");
-    table.insert(
-        "film".into(),
-        toml::Value::Table(toml::from_str("resolution = [32, 32]\nspp = 16").unwrap()),
-    );
-    // Paths relative to the scene's folder.
-    toml::to_string(&table)
-        .unwrap()
-        .replace("\"../spectra/", "\"spectra/")
-        .replace("\"cornell/", "\"scenes/cornell/")
-}
+use common::agree::{
+    assert_integrators_agree, assert_scenes_agree, cornell_box, tilted_floor_obj, DELTA_LIGHTS,
+    GLASS_METAL_SHADING, TILTED_FLOOR,
+};
 
 #[test]
 fn light_tracer_matches_the_path_tracer_on_the_cornell_box() {
-    assert_integrators_agree(&cornell_box(), "Cornell Box");
+    assert_integrators_agree(&cornell_box(), "light", "Cornell Box");
 }
 
 #[test]
 fn light_tracer_matches_the_path_tracer_through_glass_metal_and_shading_normals() {
-    // A floor and back wall under a quad light; a rough glass sphere, a
-    // rough gold sphere and a diffuse sphere of few facets whose smooth
-    // vertex normals differ from the facets' by up to ~15°.
-    let text = r#"
-[camera]
-position = [0, 1.6, -4.5]
-look_at = [0, 0.7, 0]
-fov = 45
-[film]
-resolution = [32, 24]
-spp = 16
-[materials.floor]
-type = "diffuse"
-reflectance = 0.6
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-roughness = 0.3
-[materials.gold]
-type = "conductor"
-metal = "Au"
-roughness = 0.35
-[materials.white]
-type = "diffuse"
-reflectance = 0.8
-[[shape]]
-type = "quad"
-vertices = [[-4, 0, -4], [-4, 0, 4], [4, 0, 4], [4, 0, -4]]
-material = "floor"
-[[shape]]
-type = "quad"
-vertices = [[-4, 0, 2], [-4, 4, 2], [4, 4, 2], [4, 0, 2]]
-material = "floor"
-[[shape]]
-type = "quad"
-vertices = [[-1, 3, -1], [1, 3, -1], [1, 3, 1], [-1, 3, 1]]
-emission = 6
-[[shape]]
-type = "sphere"
-center = [-1.2, 0.6, 0]
-radius = 0.6
-material = "glass"
-[[shape]]
-type = "sphere"
-center = [0.1, 0.5, 0.4]
-radius = 0.5
-material = "gold"
-[[shape]]
-type = "sphere"
-center = [1.3, 0.5, -0.3]
-radius = 0.5
-segments = 8
-material = "white"
-"#;
-    assert_integrators_agree(text, "glass, metal and shading normals");
+    assert_integrators_agree(
+        GLASS_METAL_SHADING,
+        "light",
+        "glass, metal and shading normals",
+    );
 }
 
 #[test]
 fn light_tracer_applies_the_shading_normal_correction() {
-    // A floor whose vertex normals lean 30° off its facets: diffuse
-    // reflection uses the shading normal, and light paths see the BSDF's
-    // adjoint, which differs from it by Veach's correction. With the
-    // correction removed, this test fails (8σ off in the first block).
+    // With the correction removed, this test fails (8σ off in the first
+    // block).
     let dir = tempfile::tempdir().unwrap();
-    let n = (30f32.to_radians().sin(), 30f32.to_radians().cos());
-    std::fs::write(
-        dir.path().join("floor.obj"),
-        format!(
-            "v -3 0 -3\nv 3 0 -3\nv 3 0 3\nv -3 0 3\nvn {} {} 0\nf 1//1 4//1 3//1 2//1\n",
-            n.0, n.1
-        ),
-    )
-    .unwrap();
-    let base = r#"
-[camera]
-position = [0, 2.5, -3.5]
-look_at = [0, 0, 0.5]
-fov = 50
-[film]
-resolution = [32, 24]
-spp = 16
-[materials.floor]
-type = "diffuse"
-reflectance = 0.8
-[[shape]]
-type = "obj"
-file = "floor.obj"
-material = "floor"
-[[shape]]
-type = "quad"
-vertices = [[-3, 2, 1], [-1, 2, 1], [-1, 2, 3], [-3, 2, 3]]
-emission = 4
-"#;
+    std::fs::write(dir.path().join("floor.obj"), tilted_floor_obj()).unwrap();
     let load = |kind: &str| {
         prism::scene::load_str(
-            &format!("{base}\n[integrator]\ntype = \"{kind}\"\n"),
+            &format!("{TILTED_FLOOR}\n[integrator]\ntype = \"{kind}\"\n"),
             dir.path(),
         )
         .unwrap()
@@ -210,61 +48,10 @@ emission = 4
 
 #[test]
 fn light_tracer_matches_the_path_tracer_under_delta_lights() {
-    // Point, spot and directional lights: light paths start at a point, in
-    // a cone and on a disc over the scene.
-    let text = r#"
-[camera]
-position = [0, 4, -6]
-look_at = [0, 0, 0]
-fov = 50
-[film]
-resolution = [32, 24]
-spp = 16
-[materials.white]
-type = "diffuse"
-reflectance = 0.7
-[[shape]]
-type = "quad"
-vertices = [[-6, 0, -6], [-6, 0, 6], [6, 0, 6], [6, 0, -6]]
-material = "white"
-[[shape]]
-type = "sphere"
-center = [0, 0.8, 0]
-radius = 0.8
-material = "white"
-[[light]]
-type = "point"
-position = [-2, 3, -1]
-intensity = 8
-[[light]]
-type = "spot"
-position = [3, 4, 0]
-look_at = [1.5, 0, 1]
-intensity = 30
-cone_angle = 25
-falloff_start = 15
-[[light]]
-type = "directional"
-direction = [1, -2, 1]
-irradiance = 0.3
-"#;
-    assert_integrators_agree(text, "point, spot and directional lights");
+    assert_integrators_agree(DELTA_LIGHTS, "light", "point, spot and directional lights");
 }
 
 #[test]
 fn splats_are_the_same_for_any_thread_count() {
-    let s = common::scene(&format!(
-        "{}\n[integrator]\ntype = \"light\"\n",
-        cornell_box()
-    ));
-    let one = common::render_film(&s, 1);
-    let three = common::render_film(&s, 3);
-    for y in 0..32 {
-        for x in 0..32 {
-            assert_eq!(one.sums(x, y), three.sums(x, y), "pixel ({x}, {y})");
-            assert_eq!(one.spectrum(x, y), three.spectrum(x, y), "pixel ({x}, {y})");
-        }
-    }
-    // Splats reached pixels: the image is not empty.
-    assert!(one.xyz(16, 16).y > 0.0);
+    common::agree::assert_thread_count_invariant("light");
 }

@@ -169,11 +169,17 @@ fn parts_that_do_not_belong_together_are_refused() {
 }
 
 #[test]
-fn light_traced_parts_merge_exactly_and_regions_are_refused() {
+fn splatting_parts_merge_exactly_and_regions_are_refused() {
+    for kind in ["light", "bdpt"] {
+        splatting_parts_merge(kind);
+    }
+}
+
+fn splatting_parts_merge(kind: &str) {
     // Splats land anywhere, yet each part's pixels are its splat sums over
     // its own sample count: sample ranges still merge to the single render.
     let dir = tempfile::tempdir().unwrap();
-    let light = ["--integrator", "light"];
+    let light = ["--integrator", kind];
     let single = spectral_exr::read(&render(
         dir.path(),
         "single",
@@ -197,17 +203,17 @@ fn light_traced_parts_merge_exactly_and_regions_are_refused() {
     args.extend(parts.iter().map(|p| p.to_str().unwrap()));
     ok(&args);
     let merged = spectral_exr::read(&merged.with_extension("spectral.exr")).unwrap();
-    assert_eq!(merged.attributes["prismIntegrator"], "light");
+    assert_eq!(merged.attributes["prismIntegrator"], kind);
     let d = max_relative_difference(&merged, &single);
-    eprintln!("light-traced sample ranges merged: max relative difference {d:e}");
+    eprintln!("{kind}: sample ranges merged: max relative difference {d:e}");
     assert!(d < 1e-5, "merged differs from the single render by {d}");
-    // A region of a light-traced image is not the region's light: refused.
+    // A region of a splatting render is not the region's light: refused.
     let out = prism(&[
         "render",
         SCENE,
         "-q",
         "--integrator",
-        "light",
+        kind,
         "--tile",
         "0,0,8,8",
         "-o",

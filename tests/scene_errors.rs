@@ -227,8 +227,12 @@ fn max_depth_moved_to_the_integrator() {
         e.contains("integrator.strategy") && e.contains("path tracer"),
         "{e}"
     );
-    let e = error(&format!("{CAMERA}[integrator]\ntype = \"bdpt\"\n"));
-    assert!(e.contains("unknown variant `bdpt`"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[integrator]\ntype = \"bdpt\"\nstrategy = \"mis\"\n"
+    ));
+    assert!(e.contains("not to `bdpt`"), "{e}");
+    let e = error(&format!("{CAMERA}[integrator]\ntype = \"mlt\"\n"));
+    assert!(e.contains("unknown variant `mlt`"), "{e}");
 }
 
 #[test]

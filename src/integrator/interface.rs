@@ -149,3 +149,58 @@ fn move_through(stack: &mut IorStack, m: Medium, entering: bool, counters: &mut 
         stack.remove(m.material);
     }
 }
+
+/// The dielectric media that contain the point `p` (on a surface of normal
+/// `n`, or `n` zero in free space), as a path starting there must carry
+/// them: a ray from `p` to infinity leaves each containing object before
+/// it enters it, so an object whose surface the ray first meets from the
+/// inside contains `p`. Assumes closed meshes, as the stack does. The
+/// stack lists the outermost first, as a path from outside would have
+/// entered them.
+pub fn media_at(
+    scene: &Scene,
+    p: Vec3,
+    p_err: Vec3,
+    n: Vec3,
+    counters: &mut PathCounters,
+) -> IorStack {
+    let mut stack = IorStack::default();
+    if !scene.materials.iter().any(|m| m.ior().is_some()) {
+        return stack;
+    }
+    // Any direction does; this one is along no axis, so it does not graze
+    // the axis-aligned walls that scenes are full of.
+    let dir = Vec3::new(0.285_7, 0.912_4, 0.293_1).normalize();
+    let mut ray = Ray::new(offset_ray_origin(p, p_err, n, dir), dir);
+    let mut seen = [u32::MAX; 2 * super::ior_stack::CAPACITY];
+    let mut n_seen = 0;
+    let mut inside = [None; super::ior_stack::CAPACITY];
+    let mut n_inside = 0;
+    for _ in 0..=MAX_FALSE_INTERSECTIONS {
+        counters.rays += 1;
+        let Some(hit) = scene.intersect(&ray) else {
+            break;
+        };
+        let material = &scene.materials[hit.material as usize];
+        if material.ior().is_some() && !seen[..n_seen].contains(&hit.material) {
+            if n_seen == seen.len() {
+                break;
+            }
+            seen[n_seen] = hit.material;
+            n_seen += 1;
+            if dir.dot(hit.ng) > 0.0 && n_inside < inside.len() {
+                inside[n_inside] = Some(Medium {
+                    material: hit.material,
+                    priority: material.priority(),
+                });
+                n_inside += 1;
+            }
+        }
+        ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, dir), dir);
+    }
+    // Met innermost first: enter them outermost first.
+    for m in inside[..n_inside].iter().rev().flatten() {
+        let _ = stack.push(*m);
+    }
+    stack
+}

@@ -7,14 +7,13 @@
 //! camera: a mirror or smooth glass in view is black.
 //!
 //! Light paths carry importance: the BSDF is evaluated in importance mode
-//! (no 1/η'² at refraction, Veach's shading-normal correction). Lights are
-//! taken to be outside every dielectric: their paths start with an empty
-//! IOR stack. Each sample of a pixel launches one light path, so a pixel's
+//! (no 1/η'² at refraction, Veach's shading-normal correction). A light
+//! path starts with the dielectrics that contain its light on its IOR
+//! stack (`media_at`). Each sample of a pixel launches one light path, so a pixel's
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::interface::{scatter, trace, Next};
-use super::ior_stack::IorStack;
+use super::interface::{media_at, scatter, trace, Next};
 use super::{PathCounters, PixelSample};
 use crate::camera::CameraSample;
 use crate::film::FilmTile;
@@ -86,7 +85,8 @@ impl LightTracer {
         let cos = lp.n.dot(les.dir).abs();
         let mut beta = les.le * (cos / (pmf * les.pdf_pos * les.pdf_dir));
         let mut ray = Ray::new(offset_ray_origin(lp.p, lp.p_err, lp.n, les.dir), les.dir);
-        let mut stack = IorStack::default();
+        let n = if seen { lp.n } else { Vec3::ZERO };
+        let mut stack = media_at(scene, lp.p, lp.p_err, n, counters);
         let mut depth = 0;
         while depth < self.max_depth {
             let Next::Surface { hit, eta, medium } =

@@ -9,6 +9,7 @@
 //! wherever a light path lands). The driver keeps both deterministic for
 //! any thread count.
 
+mod bdpt;
 mod interface;
 pub mod ior_stack;
 mod light_tracer;
@@ -16,6 +17,7 @@ mod path;
 
 use serde::Deserialize;
 
+pub use bdpt::Bdpt;
 pub use light_tracer::LightTracer;
 pub use path::PathTracer;
 
@@ -61,6 +63,9 @@ pub enum IntegratorKind {
     Path,
     /// Paths from the lights, connected to the camera (splats).
     Light,
+    /// Bidirectional: camera and light subpaths joined by every strategy,
+    /// weighted by MIS (splats).
+    Bdpt,
 }
 
 /// Counts kept per path, summed by the renderer.
@@ -86,6 +91,7 @@ pub struct PixelSample {
 pub enum Integrator {
     Path(PathTracer),
     Light(LightTracer),
+    Bdpt(Bdpt),
 }
 
 impl Default for Integrator {
@@ -106,17 +112,31 @@ impl Integrator {
                     strategy: spec.strategy.unwrap_or(d.strategy),
                 }))
             }
-            IntegratorKind::Light => {
+            IntegratorKind::Light | IntegratorKind::Bdpt => {
                 if spec.strategy.is_some() {
-                    return Err(
-                        "`integrator.strategy` applies to the path tracer, not to `light`".into(),
-                    );
+                    return Err(format!(
+                        "`integrator.strategy` applies to the path tracer, not to `{}`",
+                        if spec.kind == IntegratorKind::Light {
+                            "light"
+                        } else {
+                            "bdpt"
+                        }
+                    ));
                 }
-                let d = LightTracer::default();
-                Ok(Integrator::Light(LightTracer {
-                    max_depth: spec.max_depth.unwrap_or(d.max_depth),
-                    rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
-                }))
+                let (max_depth, rr_depth) = (spec.max_depth, spec.rr_depth);
+                Ok(if spec.kind == IntegratorKind::Light {
+                    let d = LightTracer::default();
+                    Integrator::Light(LightTracer {
+                        max_depth: max_depth.unwrap_or(d.max_depth),
+                        rr_depth: rr_depth.unwrap_or(d.rr_depth),
+                    })
+                } else {
+                    let d = Bdpt::default();
+                    Integrator::Bdpt(Bdpt {
+                        max_depth: max_depth.unwrap_or(d.max_depth),
+                        rr_depth: rr_depth.unwrap_or(d.rr_depth),
+                    })
+                })
             }
         }
     }
@@ -126,6 +146,7 @@ impl Integrator {
         match self {
             Integrator::Path(_) => "path",
             Integrator::Light(_) => "light",
+            Integrator::Bdpt(_) => "bdpt",
         }
     }
 
@@ -134,7 +155,7 @@ impl Integrator {
     pub fn splats(&self) -> bool {
         match self {
             Integrator::Path(_) => false,
-            Integrator::Light(_) => true,
+            Integrator::Light(_) | Integrator::Bdpt(_) => true,
         }
     }
 
@@ -158,6 +179,7 @@ impl Integrator {
                 PixelSample { l, wl }
             }
             Integrator::Light(t) => t.sample(scene, sampler, tile, counters),
+            Integrator::Bdpt(b) => b.sample(scene, x, y, sampler, tile, counters),
         }
     }
 }

@@ -214,6 +214,11 @@ impl Bsdf {
         self.lobe.flags()
     }
 
+    /// The direction the path arrived from (the `wo` it was built with).
+    pub fn wo(&self) -> Vec3 {
+        self.wo
+    }
+
     /// Only Dirac lobes: light sampling cannot help.
     pub fn is_specular(&self) -> bool {
         !self.flags().has_non_specular()

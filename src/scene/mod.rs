@@ -89,6 +89,8 @@ pub struct Scene {
     pub integrator: Integrator,
     pub materials: Vec<Material>,
     pub lights: LightSet,
+    /// The bounding sphere of the geometry, as lights at infinity see it.
+    pub sphere: SceneSphere,
     bvh: Bvh,
     triangles: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
@@ -210,6 +212,7 @@ impl Scene {
             integrator,
             materials,
             lights: LightSet::new(lights),
+            sphere,
             bvh,
             triangles,
             shading,

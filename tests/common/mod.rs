@@ -2,6 +2,7 @@
 //! them, and compare Monte Carlo estimates with their standard errors.
 #![allow(dead_code)]
 
+pub mod agree;
 pub mod assets;
 
 use std::path::Path;
