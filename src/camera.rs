@@ -139,6 +139,12 @@ impl Camera {
         1.0 / (area * cos * cos * cos)
     }
 
+    /// The width of a pixel's footprint on a plane facing the camera at
+    /// `distance`.
+    pub fn pixel_footprint(&self, distance: f32) -> f32 {
+        2.0 * distance * self.tan_half_fov / self.height as f32
+    }
+
     /// The same camera for another image size (the vertical field of view is kept).
     pub fn with_resolution(mut self, width: u32, height: u32) -> Self {
         self.width = width;

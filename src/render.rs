@@ -191,11 +191,19 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     // counts, so every pixel must have the same: a pass it starts, it ends.
     let whole_passes = scene.integrator.splats();
     // Passes of a sixteenth of the samples (at most 16 each) keep the progress
-    // bar moving and bound how much work an interruption waits for.
-    let pass = spp.div_ceil(16).clamp(1, 16);
+    // bar moving and bound how much work an interruption waits for. An
+    // integrator that prepares each sample index (photons) goes one at a time.
+    let pass = if scene.integrator.prepares() {
+        1
+    } else {
+        spp.div_ceil(16).clamp(1, 16)
+    };
     let mut first = samples.start;
     while first < samples.end && !cancelled() {
         let range = first..(first + pass).min(samples.end);
+        let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
+        rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
+        overflows.fetch_add(prepare_counters.stack_overflows, Ordering::Relaxed);
         for batch in tiles.chunks(TILES_PER_BATCH) {
             let results: Vec<FilmTile> = batch
                 .par_iter()
@@ -215,6 +223,7 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                                     x,
                                     y,
                                     &mut sampler,
+                                    &prepared,
                                     &mut tile,
                                     &mut counters,
                                 );

@@ -11,6 +11,7 @@ use common::agree::{
     assert_integrators_agree, assert_scenes_agree, block_estimates, cornell_box, tilted_floor_obj,
     DELTA_LIGHTS, GLASS_METAL_SHADING, TILTED_FLOOR,
 };
+use common::caustic;
 use glam::DVec3;
 
 #[test]
@@ -136,88 +137,33 @@ fn bdpt_white_furnace() {
     );
 }
 
-/// Fresnel reflectance of a conductor of complex index η + ik at incidence
-/// cos θ (exact, for unpolarised light), computed here independently of
-/// prism's own.
-fn conductor_reflectance(cos: f64, eta: f64, k: f64) -> f64 {
-    // n² − sin²θ = a + ib, with n = η + ik; s and p amplitudes from its root.
-    let sin2 = 1.0 - cos * cos;
-    let (a, b) = (eta * eta - k * k - sin2, 2.0 * eta * k);
-    let modulus = (a * a + b * b).sqrt();
-    let (u, v) = (((modulus + a) / 2.0).sqrt(), ((modulus - a) / 2.0).sqrt());
-    let rs = ((cos - u).powi(2) + v * v) / ((cos + u).powi(2) + v * v);
-    // r_p = (n² cos − w) / (n² cos + w), w = u + iv, n² = (a + sin²) + ib.
-    let (n2r, n2i) = (a + sin2, b);
-    let (pr, pi) = (n2r * cos - u, n2i * cos - v);
-    let (qr, qi) = (n2r * cos + u, n2i * cos + v);
-    let rp = (pr * pr + pi * pi) / (qr * qr + qi * qi);
-    0.5 * (rs + rp)
-}
-
-/// A caustic with a closed form: a point light of intensity I at height 1
-/// over a Lambertian floor of albedo ρ, under a horizontal mirror (a smooth
-/// conductor) at height 2. The floor receives the light directly and from
-/// its mirror image at height 3, attenuated by the mirror's Fresnel
-/// reflectance: E = I·1/r₁³ + R(3/r₂)·I·3/r₂³, and has radiance ρE/π.
-/// With max_depth 2 nothing else reaches the camera. The path tracer never
-/// finds the mirrored light (a point seen in a mirror); bdpt finds it by
-/// light tracing and must match the closed form.
+/// The caustic of tests/common/caustic.rs: a point light seen in a mirror
+/// lights the floor. With max_depth 2 nothing else reaches the camera. The
+/// path tracer never finds the mirrored light (a point seen in a mirror);
+/// bdpt finds it by light tracing and must match the closed form.
 #[test]
 fn bdpt_and_light_tracing_match_a_mirror_caustic() {
-    let (rho, intensity, eta, k) = (0.5, 10.0, 0.2, 3.0);
-    let text = |kind: &str| {
-        format!(
-            "[camera]\nposition = [0, 1.8, -3]\nlook_at = [0, 0, 1]\nfov = 30\n\
-             [film]\nresolution = [32, 24]\n\
-             [integrator]\ntype = \"{kind}\"\nmax_depth = 2\n\
-             [materials.floor]\ntype = \"diffuse\"\nreflectance = {rho}\n\
-             [materials.mirror]\ntype = \"conductor\"\neta = {eta}\nk = {k}\n\
-             [[shape]]\ntype = \"quad\"\nvertices = [[-20, 0, -20], [-20, 0, 20], [20, 0, 20], [20, 0, -20]]\nmaterial = \"floor\"\n\
-             [[shape]]\ntype = \"quad\"\nvertices = [[-8, 2, -8], [8, 2, -8], [8, 2, 8], [-8, 2, 8]]\nmaterial = \"mirror\"\n\
-             [[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = {intensity}\n"
-        )
-    };
-    let radiance = |p: DVec3| {
-        let direct = 1.0 / (p - DVec3::Y).length().powi(3);
-        let r2 = (p - 3.0 * DVec3::Y).length();
-        let mirrored = conductor_reflectance(3.0 / r2, eta, k) * 3.0 / r2.powi(3);
-        rho / std::f64::consts::PI * intensity * (direct + mirrored)
-    };
-    // The closed form averaged over each 8 × 8 block (16 points a pixel:
-    // the box filter), where every point sees the floor.
-    let probe = common::scene(&text("bdpt"));
-    let (w, h) = (32u32, 24u32);
+    let probe = caustic::scene("bdpt", "", false, 2);
+    let pixels = caustic::expected_pixels(&probe, false, false, 0.0);
+    let (w, h) = (probe.film.width, probe.film.height);
     let mut expected = Vec::new();
     for y0 in (0..h).step_by(8) {
         for x0 in (0..w).step_by(8) {
-            let (mut sum, mut n) = (0.0, 0.0);
-            for y in y0..y0 + 8 {
-                for x in x0..x0 + 8 {
-                    for (i, j) in (0..4).flat_map(|i| (0..4).map(move |j| (i, j))) {
-                        let r = probe.camera.generate_ray(
-                            x as f32 + (i as f32 + 0.5) / 4.0,
-                            y as f32 + (j as f32 + 0.5) / 4.0,
-                        );
-                        let t = -r.origin.y / r.dir.y;
-                        assert!(t > 0.0, "every pixel sees the floor");
-                        sum += radiance((r.origin + r.dir * t).as_dvec3());
-                        n += 1.0;
-                    }
-                }
-            }
-            expected.push(sum / n);
+            let block: Vec<f64> = (y0..y0 + 8)
+                .flat_map(|y| (x0..x0 + 8).map(move |x| (x, y)))
+                .map(|(x, y)| pixels[(y * w + x) as usize].expect("every pixel sees the floor"))
+                .collect();
+            expected.push(block.iter().sum::<f64>() / block.len() as f64);
         }
     }
     // The mirror's share is large enough to matter.
     let centre = DVec3::new(0.0, 0.0, 1.0);
-    let r2 = (centre - 3.0 * DVec3::Y).length();
-    let share = conductor_reflectance(3.0 / r2, eta, k) * 3.0
-        / r2.powi(3)
-        / (1.0 / (centre - DVec3::Y).length().powi(3));
+    let direct = caustic::INTENSITY / (centre - DVec3::Y).length().powi(3);
+    let share = caustic::irradiance(centre, false) / direct - 1.0;
     assert!(share > 0.1, "mirrored / direct = {share}");
 
     for kind in ["bdpt", "light"] {
-        let s = common::scene(&text(kind));
+        let s = caustic::scene(kind, "", false, 2);
         let blocks = block_estimates(&s, 64, 16);
         let mut worst = 0.0f64;
         for (i, ((m, var), e)) in blocks.iter().zip(&expected).enumerate() {

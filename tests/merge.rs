@@ -171,11 +171,19 @@ fn parts_that_do_not_belong_together_are_refused() {
 #[test]
 fn splatting_parts_merge_exactly_and_regions_are_refused() {
     for kind in ["light", "bdpt"] {
-        splatting_parts_merge(kind);
+        parts_merge(kind);
+        region_refused(kind);
     }
 }
 
-fn splatting_parts_merge(kind: &str) {
+/// Photon mapping's iterations are independent estimates (each with its
+/// own radius, fixed by its index): iteration ranges merge exactly.
+#[test]
+fn photon_mapped_iteration_ranges_merge_exactly() {
+    parts_merge("sppm");
+}
+
+fn parts_merge(kind: &str) {
     // Splats land anywhere, yet each part's pixels are its splat sums over
     // its own sample count: sample ranges still merge to the single render.
     let dir = tempfile::tempdir().unwrap();
@@ -207,7 +215,11 @@ fn splatting_parts_merge(kind: &str) {
     let d = max_relative_difference(&merged, &single);
     eprintln!("{kind}: sample ranges merged: max relative difference {d:e}");
     assert!(d < 1e-5, "merged differs from the single render by {d}");
-    // A region of a splatting render is not the region's light: refused.
+}
+
+/// A region of a splatting render is not the region's light: refused.
+fn region_refused(kind: &str) {
+    let dir = tempfile::tempdir().unwrap();
     let out = prism(&[
         "render",
         SCENE,

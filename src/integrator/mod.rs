@@ -14,12 +14,14 @@ mod interface;
 pub mod ior_stack;
 mod light_tracer;
 mod path;
+mod sppm;
 
 use serde::Deserialize;
 
 pub use bdpt::Bdpt;
 pub use light_tracer::LightTracer;
 pub use path::PathTracer;
+pub use sppm::{PhotonMap, Sppm};
 
 use crate::film::FilmTile;
 use crate::sampler::Sampler;
@@ -53,6 +55,15 @@ pub struct IntegratorSpec {
     pub rr_depth: Option<u32>,
     /// How the path tracer finds direct light: "mis" (default), "nee" or "bsdf".
     pub strategy: Option<Strategy>,
+    /// Photon mapping: photons per iteration.
+    pub photons: Option<u32>,
+    /// Photon mapping: the first iteration's radius (scene units).
+    pub radius: Option<f32>,
+    /// Photon mapping: radius reduction exponent α in (0, 1] (default 2/3;
+    /// 1 keeps the radius, which never converges).
+    pub alpha: Option<f32>,
+    /// Photon mapping: the first iteration's wavelength kernel half-width (nm).
+    pub spectral_radius: Option<f32>,
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, clap::ValueEnum)]
@@ -66,6 +77,9 @@ pub enum IntegratorKind {
     /// Bidirectional: camera and light subpaths joined by every strategy,
     /// weighted by MIS (splats).
     Bdpt,
+    /// Stochastic progressive photon mapping: caustics, also seen through
+    /// glass or in mirrors (consistent, not unbiased).
+    Sppm,
 }
 
 /// Counts kept per path, summed by the renderer.
@@ -86,12 +100,23 @@ pub struct PixelSample {
 
 /// Every integrator. Adding one: a module with its type (parameters as
 /// fields, a `sample` method), and here a variant, an `IntegratorKind`, and
-/// its arms in `from_spec`, `name`, `splats` and `sample`.
+/// its arms in `from_spec`, `name`, `splats` and `sample` (and `prepare`
+/// if it shares work between the pixels' samples of one index).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Integrator {
     Path(PathTracer),
     Light(LightTracer),
     Bdpt(Bdpt),
+    Sppm(Sppm),
+}
+
+/// What an integrator computes once per sample index, before any pixel's
+/// sample of that index: the photons of an iteration of photon mapping.
+#[derive(Debug, Default)]
+pub enum Prepared {
+    #[default]
+    Nothing,
+    Photons(PhotonMap),
 }
 
 impl Default for Integrator {
@@ -103,42 +128,82 @@ impl Default for Integrator {
 impl Integrator {
     /// From the scene file's `[integrator]` table; the error names the key.
     pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
-        match spec.kind {
-            IntegratorKind::Path => {
-                let d = PathTracer::default();
-                Ok(Integrator::Path(PathTracer {
-                    max_depth: spec.max_depth.unwrap_or(d.max_depth),
-                    rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
-                    strategy: spec.strategy.unwrap_or(d.strategy),
-                }))
-            }
-            IntegratorKind::Light | IntegratorKind::Bdpt => {
-                if spec.strategy.is_some() {
-                    return Err(format!(
-                        "`integrator.strategy` applies to the path tracer, not to `{}`",
-                        if spec.kind == IntegratorKind::Light {
-                            "light"
-                        } else {
-                            "bdpt"
-                        }
-                    ));
-                }
-                let (max_depth, rr_depth) = (spec.max_depth, spec.rr_depth);
-                Ok(if spec.kind == IntegratorKind::Light {
-                    let d = LightTracer::default();
-                    Integrator::Light(LightTracer {
-                        max_depth: max_depth.unwrap_or(d.max_depth),
-                        rr_depth: rr_depth.unwrap_or(d.rr_depth),
-                    })
-                } else {
-                    let d = Bdpt::default();
-                    Integrator::Bdpt(Bdpt {
-                        max_depth: max_depth.unwrap_or(d.max_depth),
-                        rr_depth: rr_depth.unwrap_or(d.rr_depth),
-                    })
-                })
+        let name = match spec.kind {
+            IntegratorKind::Path => "path",
+            IntegratorKind::Light => "light",
+            IntegratorKind::Bdpt => "bdpt",
+            IntegratorKind::Sppm => "sppm",
+        };
+        let not_for = |key: &str, owner: &str| {
+            format!("`integrator.{key}` applies to {owner}, not to `{name}`")
+        };
+        if spec.kind != IntegratorKind::Path && spec.strategy.is_some() {
+            return Err(not_for("strategy", "the path tracer"));
+        }
+        if spec.kind != IntegratorKind::Sppm {
+            let photon_keys = [
+                ("photons", spec.photons.is_some()),
+                ("radius", spec.radius.is_some()),
+                ("alpha", spec.alpha.is_some()),
+                ("spectral_radius", spec.spectral_radius.is_some()),
+            ];
+            if let Some((key, _)) = photon_keys.iter().find(|(_, given)| *given) {
+                return Err(not_for(key, "photon mapping (`sppm`)"));
             }
         }
+        let depth = |default: u32| spec.max_depth.unwrap_or(default);
+        let rr = |default: u32| spec.rr_depth.unwrap_or(default);
+        Ok(match spec.kind {
+            IntegratorKind::Path => {
+                let d = PathTracer::default();
+                Integrator::Path(PathTracer {
+                    max_depth: depth(d.max_depth),
+                    rr_depth: rr(d.rr_depth),
+                    strategy: spec.strategy.unwrap_or(d.strategy),
+                })
+            }
+            IntegratorKind::Light => {
+                let d = LightTracer::default();
+                Integrator::Light(LightTracer {
+                    max_depth: depth(d.max_depth),
+                    rr_depth: rr(d.rr_depth),
+                })
+            }
+            IntegratorKind::Bdpt => {
+                let d = Bdpt::default();
+                Integrator::Bdpt(Bdpt {
+                    max_depth: depth(d.max_depth),
+                    rr_depth: rr(d.rr_depth),
+                })
+            }
+            IntegratorKind::Sppm => {
+                let d = Sppm::default();
+                let positive = |key: &str, v: Option<f32>| match v {
+                    Some(v) if !(v > 0.0 && v.is_finite()) => Err(format!(
+                        "`integrator.{key}` must be a positive number, not {v}"
+                    )),
+                    _ => Ok(v),
+                };
+                let alpha = spec.alpha.unwrap_or(d.alpha);
+                if !(alpha > 0.0 && alpha <= 1.0) {
+                    return Err(format!(
+                        "`integrator.alpha` must lie in (0, 1], not {alpha}"
+                    ));
+                }
+                if spec.photons == Some(0) {
+                    return Err("`integrator.photons` must be at least 1".into());
+                }
+                Integrator::Sppm(Sppm {
+                    max_depth: depth(d.max_depth),
+                    rr_depth: rr(d.rr_depth),
+                    photons: spec.photons,
+                    radius: positive("radius", spec.radius)?,
+                    alpha,
+                    spectral_radius: positive("spectral_radius", spec.spectral_radius)?
+                        .unwrap_or(d.spectral_radius),
+                })
+            }
+        })
     }
 
     /// The name the scene file and the command line use.
@@ -147,6 +212,7 @@ impl Integrator {
             Integrator::Path(_) => "path",
             Integrator::Light(_) => "light",
             Integrator::Bdpt(_) => "bdpt",
+            Integrator::Sppm(_) => "sppm",
         }
     }
 
@@ -154,19 +220,38 @@ impl Integrator {
     /// must cover the whole film with the same number of samples per pixel.
     pub fn splats(&self) -> bool {
         match self {
-            Integrator::Path(_) => false,
+            Integrator::Path(_) | Integrator::Sppm(_) => false,
             Integrator::Light(_) | Integrator::Bdpt(_) => true,
         }
     }
 
+    /// Whether each sample index needs `prepare` first: such renders go
+    /// one sample index at a time.
+    pub fn prepares(&self) -> bool {
+        matches!(self, Integrator::Sppm(_))
+    }
+
+    /// The work shared by every pixel's sample `index`.
+    pub fn prepare(&self, scene: &Scene, seed: u64, index: u32) -> (Prepared, PathCounters) {
+        match self {
+            Integrator::Sppm(p) => {
+                let (map, counters) = p.photon_map(scene, seed, index);
+                (Prepared::Photons(map), counters)
+            }
+            _ => (Prepared::Nothing, PathCounters::default()),
+        }
+    }
+
     /// Sample `sampler` of pixel (x, y): what it measures there; splats go
-    /// to `tile`.
+    /// to `tile`. `prepared` is what `prepare` made for this sample index.
+    #[allow(clippy::too_many_arguments)]
     pub fn sample(
         &self,
         scene: &Scene,
         x: u32,
         y: u32,
         sampler: &mut Sampler,
+        prepared: &Prepared,
         tile: &mut FilmTile,
         counters: &mut PathCounters,
     ) -> PixelSample {
@@ -180,6 +265,17 @@ impl Integrator {
             }
             Integrator::Light(t) => t.sample(scene, sampler, tile, counters),
             Integrator::Bdpt(b) => b.sample(scene, x, y, sampler, tile, counters),
+            Integrator::Sppm(p) => {
+                let empty;
+                let map = match prepared {
+                    Prepared::Photons(map) => map,
+                    Prepared::Nothing => {
+                        empty = PhotonMap::default();
+                        &empty
+                    }
+                };
+                p.sample(scene, x, y, sampler, map, counters)
+            }
         }
     }
 }

@@ -13,6 +13,19 @@ use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
+/// A surface a camera path reached, offered to `radiance_until`'s `stop`.
+pub struct Stop<'a> {
+    pub hit: &'a SurfaceHit,
+    /// Towards where the path came from.
+    pub wo: glam::Vec3,
+    pub bsdf: &'a Bsdf,
+    pub wl: &'a SampledWavelengths,
+    /// Surfaces met so far, this one included.
+    pub depth: u32,
+    pub sampler: &'a mut Sampler,
+    pub counters: &'a mut PathCounters,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PathTracer {
     /// Most bounces: 1 is direct lighting only.
@@ -38,10 +51,26 @@ impl PathTracer {
     pub fn radiance(
         &self,
         scene: &Scene,
+        ray: Ray,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counters: &mut PathCounters,
+    ) -> SampledSpectrum {
+        self.radiance_until(scene, ray, wl, sampler, counters, |_| None)
+    }
+
+    /// `radiance`, where `stop` may end the path at a surface with an
+    /// estimate of the light it reflects (photon mapping ends camera paths
+    /// at their first diffuse surface). Emission at the surface is already
+    /// counted; the estimate is weighted by the path's throughput.
+    pub fn radiance_until(
+        &self,
+        scene: &Scene,
         mut ray: Ray,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
+        mut stop: impl FnMut(Stop<'_>) -> Option<SampledSpectrum>,
     ) -> SampledSpectrum {
         let mut l = SampledSpectrum::ZERO;
         let mut beta = SampledSpectrum::ONE;
@@ -94,6 +123,19 @@ impl PathTracer {
                 wo,
             };
             let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
+            let at = Stop {
+                hit: &hit,
+                wo,
+                bsdf: &bsdf,
+                wl,
+                depth,
+                sampler: &mut *sampler,
+                counters: &mut *counters,
+            };
+            if let Some(reflected) = stop(at) {
+                l += beta * reflected;
+                break;
+            }
 
             if self.strategy != Strategy::Bsdf && !bsdf.is_specular() {
                 l += beta * self.sample_direct(scene, &hit, wo, &bsdf, wl, sampler, counters);
@@ -159,7 +201,7 @@ impl PathTracer {
     /// Next-event estimation: light arriving directly from a point sampled on
     /// a light, weighted against BSDF sampling when the strategy is MIS.
     #[allow(clippy::too_many_arguments)]
-    fn sample_direct(
+    pub(super) fn sample_direct(
         &self,
         scene: &Scene,
         hit: &SurfaceHit,

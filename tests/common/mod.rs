@@ -4,6 +4,7 @@
 
 pub mod agree;
 pub mod assets;
+pub mod caustic;
 
 use std::path::Path;
 
