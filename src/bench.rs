@@ -93,6 +93,8 @@ pub struct BenchOptions {
     pub out_dir: PathBuf,
     /// Identifies the scene file's content, for the reference cache.
     pub scene_hash: String,
+    /// Render with this integrator instead of the scene file's.
+    pub integrator: Option<crate::integrator::IntegratorKind>,
 }
 
 /// The reference image: the given one, a cached render of this scene file
@@ -158,7 +160,9 @@ pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Res
             );
         }
         let rgb = film.linear_srgb();
-        let image = opts.out_dir.join(format!("prism-{spp}spp.exr"));
+        let image = opts
+            .out_dir
+            .join(format!("prism-{}-{spp}spp.exr", scene.integrator.name()));
         write_rgb_exr(&rgb, film.width, film.height, &image)?;
         let e = rel_mse(&rgb, reference);
         eprintln!(
@@ -178,11 +182,18 @@ pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Res
 }
 
 /// The ladder as CSV: one row per rung.
-pub fn write_csv(path: &Path, scene: &str, load: Duration, rungs: &[Rung]) -> Result<()> {
-    let mut text = String::from("renderer,scene,spp,wall_s,cpu_s,load_s,rel_mse,image\n");
+pub fn write_csv(
+    path: &Path,
+    scene: &str,
+    integrator: &str,
+    load: Duration,
+    rungs: &[Rung],
+) -> Result<()> {
+    let mut text =
+        String::from("renderer,scene,spp,wall_s,cpu_s,load_s,rel_mse,image,integrator\n");
     for r in rungs {
         text += &format!(
-            "prism,{scene},{},{:.6},{:.6},{:.6},{:.6e},{}\n",
+            "prism,{scene},{},{:.6},{:.6},{:.6},{:.6e},{},{integrator}\n",
             r.spp,
             r.wall.as_secs_f64(),
             r.cpu.as_secs_f64(),
@@ -206,6 +217,7 @@ pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOption
     let load_start = Instant::now();
     let overrides = crate::scene::Overrides {
         resolution,
+        integrator: opts.integrator,
         ..Default::default()
     };
     let scene = crate::scene::load_with(scene_path, &overrides)?;
@@ -223,8 +235,14 @@ pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOption
     );
     let (_, reference) = reference(&scene, opts)?;
     let rungs = run_ladder(&scene, &reference, opts)?;
-    let csv = opts.out_dir.join("prism.csv");
-    write_csv(&csv, &scene_path.display().to_string(), load, &rungs)?;
+    // The scene's own integrator writes prism.csv (what tools/bench.py
+    // reads); another one chosen by --integrator, prism-NAME.csv.
+    let name = scene.integrator.name();
+    let csv = match opts.integrator {
+        Some(_) => opts.out_dir.join(format!("prism-{name}.csv")),
+        None => opts.out_dir.join("prism.csv"),
+    };
+    write_csv(&csv, &scene_path.display().to_string(), name, load, &rungs)?;
     eprintln!("wrote {}", csv.display());
     Ok(())
 }

@@ -131,6 +131,9 @@ enum Command {
         /// Where the CSV, the rungs' images and the cached reference go.
         #[arg(short, long, value_name = "DIR", default_value = "bench")]
         out: PathBuf,
+        /// Integrator (overrides integrator.type); its CSV is OUT/prism-NAME.csv.
+        #[arg(long, value_enum)]
+        integrator: Option<IntegratorKind>,
     },
     /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
     Info {
@@ -284,6 +287,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             resolution,
             threads,
             out,
+            integrator,
         } => {
             let hash = std::fs::read(&scene)
                 .map(|bytes| prism::merge::scene_hash(&bytes))
@@ -295,6 +299,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 threads,
                 out_dir: out,
                 scene_hash: hash,
+                integrator,
             };
             prism::bench::run(&scene, resolution, &opts)?;
             Ok(ExitCode::SUCCESS)

@@ -257,3 +257,49 @@ fn a_scene_without_light_is_warned_about() {
     .unwrap();
     assert!(lit.warnings.is_empty(), "{:?}", lit.warnings);
 }
+
+#[test]
+fn photon_mapping_keys_are_checked_and_dropped_when_the_command_line_chooses_another_integrator() {
+    let e = error(&format!(
+        "{CAMERA}[integrator]\ntype = \"path\"\nphotons = 1000\n"
+    ));
+    assert!(
+        e.contains("integrator.photons") && e.contains("sppm"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{CAMERA}[integrator]\ntype = \"sppm\"\nalpha = 1.5\n"
+    ));
+    assert!(e.contains("integrator.alpha"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[integrator]\ntype = \"sppm\"\nradius = -1\n"
+    ));
+    assert!(e.contains("integrator.radius"), "{e}");
+    // --integrator path on a photon-mapped scene: its photon keys are
+    // ignored, with a warning naming each.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.toml");
+    std::fs::write(
+        &file,
+        format!("{CAMERA}[integrator]\ntype = \"sppm\"\nphotons = 1000\nradius = 0.1\n"),
+    )
+    .unwrap();
+    let s = prism::scene::load_with(
+        &file,
+        &prism::scene::Overrides {
+            integrator: Some(prism::integrator::IntegratorKind::Path),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(s.integrator.name(), "path");
+    for key in ["photons", "radius"] {
+        assert!(
+            s.warnings
+                .iter()
+                .any(|w| w.contains(&format!("integrator.{key}")) && w.contains("ignored")),
+            "{:?}",
+            s.warnings
+        );
+    }
+}

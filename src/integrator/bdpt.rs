@@ -12,9 +12,11 @@
 //! Every path of n vertices can be made by up to n + 1 of these strategies;
 //! each contribution is weighted by the power heuristic over all of them,
 //! using each vertex's area density in both directions (`pdf_fwd` along its
-//! own subpath, `pdf_rev` as the other subpath would have made it). Dirac
-//! lobes and delta lights get density 0 and are left out of the sum, since
-//! no connection can reach them.
+//! own subpath, `pdf_rev` as the other subpath would have made it). A Dirac
+//! lobe's density counts as 1 per solid angle, converted to area like any
+//! other (its deltas cancel between strategies); strategies that would
+//! connect at a Dirac vertex or start at a delta light cannot make the path
+//! and are left out of the sum.
 //!
 //! Both subpaths share the sample's wavelengths: a smooth dispersive
 //! interface met by either ends the secondaries for the whole path (every
@@ -522,11 +524,18 @@ impl Walk {
                 break;
             };
             beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+            // A Dirac lobe's density is a delta in solid angle: counted as
+            // 1 in both directions, its conversions to area (cos / d²) stay
+            // in the ratios of `mis_weight`, where they cancel between the
+            // strategies as Veach's derivation has them. (Counting it as 1
+            // per area instead, as pbrt does, weights strategies across a
+            // specular chain by the wrong geometry: the caustic of a ball
+            // lens then goes to camera paths that find the light by chance.)
             let pdf_rev_dir = if bs.is_specular() {
                 let cur = path.len() - 1;
                 path[cur].delta = true;
-                pdf_dir = 0.0;
-                0.0
+                pdf_dir = 1.0;
+                1.0
             } else {
                 pdf_dir = bs.pdf;
                 bsdf.pdf(bs.wi, wo, self.mode)

@@ -66,6 +66,32 @@ pub struct IntegratorSpec {
     pub spectral_radius: Option<f32>,
 }
 
+impl IntegratorSpec {
+    /// Clears the keys that apply only to integrators other than `kind`;
+    /// returns their names.
+    pub fn drop_keys_of_others(&mut self) -> Vec<&'static str> {
+        let mut dropped = Vec::new();
+        if self.kind != IntegratorKind::Path && self.strategy.take().is_some() {
+            dropped.push("strategy");
+        }
+        if self.kind != IntegratorKind::Sppm {
+            if self.photons.take().is_some() {
+                dropped.push("photons");
+            }
+            if self.radius.take().is_some() {
+                dropped.push("radius");
+            }
+            if self.alpha.take().is_some() {
+                dropped.push("alpha");
+            }
+            if self.spectral_radius.take().is_some() {
+                dropped.push("spectral_radius");
+            }
+        }
+        dropped
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorKind {
@@ -82,6 +108,18 @@ pub enum IntegratorKind {
     Sppm,
 }
 
+impl IntegratorKind {
+    /// The name the scene file and the command line use.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Path => "path",
+            IntegratorKind::Light => "light",
+            IntegratorKind::Bdpt => "bdpt",
+            IntegratorKind::Sppm => "sppm",
+        }
+    }
+}
+
 /// Counts kept per path, summed by the renderer.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathCounters {
@@ -89,6 +127,16 @@ pub struct PathCounters {
     pub rays: u64,
     /// Media that could not be entered because the IOR stack was full.
     pub stack_overflows: u64,
+    /// Photons left on diffuse surfaces (photon mapping).
+    pub photons_stored: u64,
+}
+
+impl PathCounters {
+    pub fn add(&mut self, other: &PathCounters) {
+        self.rays += other.rays;
+        self.stack_overflows += other.stack_overflows;
+        self.photons_stored += other.photons_stored;
+    }
 }
 
 /// What one sample of a pixel measured, at its wavelengths.
@@ -128,12 +176,7 @@ impl Default for Integrator {
 impl Integrator {
     /// From the scene file's `[integrator]` table; the error names the key.
     pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
-        let name = match spec.kind {
-            IntegratorKind::Path => "path",
-            IntegratorKind::Light => "light",
-            IntegratorKind::Bdpt => "bdpt",
-            IntegratorKind::Sppm => "sppm",
-        };
+        let name = spec.kind.name();
         let not_for = |key: &str, owner: &str| {
             format!("`integrator.{key}` applies to {owner}, not to `{name}`")
         };
@@ -193,15 +236,14 @@ impl Integrator {
                 if spec.photons == Some(0) {
                     return Err("`integrator.photons` must be at least 1".into());
                 }
-                Integrator::Sppm(Sppm {
-                    max_depth: depth(d.max_depth),
-                    rr_depth: rr(d.rr_depth),
-                    photons: spec.photons,
-                    radius: positive("radius", spec.radius)?,
+                Integrator::Sppm(Sppm::new(
+                    depth(d.max_depth),
+                    rr(d.rr_depth),
+                    spec.photons,
+                    positive("radius", spec.radius)?,
                     alpha,
-                    spectral_radius: positive("spectral_radius", spec.spectral_radius)?
-                        .unwrap_or(d.spectral_radius),
-                })
+                    positive("spectral_radius", spec.spectral_radius)?.unwrap_or(d.spectral_radius),
+                ))
             }
         })
     }

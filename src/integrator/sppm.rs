@@ -28,6 +28,8 @@
 //! variance of iteration i grows as (r_i² h_i)⁻¹ ∝ i^(3(1 − α)/2), slower
 //! than i for α > 1/3, so the mean converges.
 
+use std::sync::OnceLock;
+
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -41,13 +43,13 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Sppm {
     /// Most bounces of a full path (camera side and photon together).
     pub max_depth: u32,
     /// Bounces before Russian roulette may end a path or a photon.
     pub rr_depth: u32,
-    /// Photons per iteration; None: one per pixel, within [2¹⁴, 2²⁰].
+    /// Photons per iteration; None: `default_photons`.
     pub photons: Option<u32>,
     /// Radius of the first iteration (scene units); None: derived from the
     /// scene (`initial_radius`).
@@ -57,18 +59,42 @@ pub struct Sppm {
     pub alpha: f32,
     /// Half-width of the wavelength kernel in the first iteration (nm).
     pub spectral_radius: f32,
+    /// The default photon count, worked out once per scene.
+    default_photons: OnceLock<u32>,
+}
+
+impl Sppm {
+    pub fn new(
+        max_depth: u32,
+        rr_depth: u32,
+        photons: Option<u32>,
+        radius: Option<f32>,
+        alpha: f32,
+        spectral_radius: f32,
+    ) -> Self {
+        Self {
+            max_depth,
+            rr_depth,
+            photons,
+            radius,
+            alpha,
+            spectral_radius,
+            default_photons: OnceLock::new(),
+        }
+    }
 }
 
 impl Default for Sppm {
     fn default() -> Self {
-        Self {
-            max_depth: 16,
-            rr_depth: 3,
-            photons: None,
-            radius: None,
-            alpha: 2.0 / 3.0,
-            spectral_radius: 10.0,
-        }
+        Self::new(16, 3, None, None, 2.0 / 3.0, 10.0)
+    }
+}
+
+impl PartialEq for Sppm {
+    fn eq(&self, other: &Self) -> bool {
+        (self.max_depth, self.rr_depth, self.photons, self.radius)
+            == (other.max_depth, other.rr_depth, other.photons, other.radius)
+            && (self.alpha, self.spectral_radius) == (other.alpha, other.spectral_radius)
     }
 }
 
@@ -177,12 +203,36 @@ const PHOTON_BATCH: u32 = 4096;
 /// Photons' random streams use this row of the sampler's pixel grid,
 /// which no image reaches, so they never share a camera sample's numbers.
 const PHOTON_ROW: u32 = u32::MAX;
+/// The seed of the pilot photons that size the default photon count.
+const PILOT_SEED: u64 = 0x9107_0000;
 
 impl Sppm {
-    /// Photons per iteration.
+    /// Photons per iteration: the given number, or `default_photons`.
     pub fn photons_per_iteration(&self, scene: &Scene) -> u32 {
-        self.photons
-            .unwrap_or_else(|| (scene.film.width * scene.film.height).clamp(1 << 14, 1 << 20))
+        self.photons.unwrap_or_else(|| {
+            *self
+                .default_photons
+                .get_or_init(|| self.default_photons(scene))
+        })
+    }
+
+    /// Enough photons that about one is stored per pixel in an iteration,
+    /// within [2¹⁴, 2²²]: a pilot of 2¹⁴ photons (a fixed stream, so the
+    /// count is the same for every render of the scene) measures how many
+    /// a photon leaves on diffuse surfaces. A scene lit through a small
+    /// prism stores one photon in a hundred; a closed room several per
+    /// photon.
+    fn default_photons(&self, scene: &Scene) -> u32 {
+        const PILOT: u32 = 1 << 14;
+        let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
+        for j in 0..PILOT {
+            let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
+            self.trace_photon(scene, &mut sampler, &mut stored, &mut counters);
+            stored.clear();
+        }
+        let pixels = (scene.film.width as f64) * (scene.film.height as f64);
+        let per_photon = (counters.photons_stored as f64 / PILOT as f64).max(1e-4);
+        (pixels / per_photon).clamp((1u32 << 14) as f64, (1u32 << 22) as f64) as u32
     }
 
     /// The first iteration's radius: the given one, or four pixels' width
@@ -227,8 +277,7 @@ impl Sppm {
         let mut photons = Vec::with_capacity(batches.iter().map(|b| b.0.len()).sum());
         for (batch, c) in batches {
             photons.extend_from_slice(&batch);
-            counters.rays += c.rays;
-            counters.stack_overflows += c.stack_overflows;
+            counters.add(&c);
         }
         let grid = HashGrid::build(photons.iter().map(|p| p.p), photons.len(), 2.0 * radius);
         let map = PhotonMap {
@@ -291,6 +340,7 @@ impl Sppm {
                     }
                 }
                 if weight.is_finite() && weight != Vec4::ZERO {
+                    counters.photons_stored += 1;
                     out.push(Photon {
                         p: hit.p,
                         wi: wo,

@@ -12,6 +12,7 @@ use anyhow::{bail, Result};
 use super::{check_writable, human_bytes, output_stem, suffixed};
 use crate::film::{output, spectral_exr};
 use crate::integrator::ior_stack::CAPACITY;
+use crate::integrator::Integrator;
 use crate::merge::{scene_hash, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
 use crate::render::{render, RenderOptions};
 use crate::scene::{self, Overrides};
@@ -104,6 +105,13 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         film.height,
         scene.integrator.name()
     );
+    if let Integrator::Sppm(p) = &scene.integrator {
+        eprintln!(
+            "photon mapping: {} photons per iteration, radius {:.4} (scene units) in the first",
+            p.photons_per_iteration(&scene),
+            p.initial_radius(&scene)
+        );
+    }
 
     let (result, stats) = render(&scene, &options)?;
     let secs = stats.elapsed.as_secs_f64();

@@ -184,7 +184,18 @@ impl Loader {
         }
         let mut file: SceneFile =
             toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
+        let file_kind = file.integrator.kind;
         *self.overridden.borrow_mut() = overrides.apply(&mut file);
+        if file.integrator.kind != file_kind {
+            // The file's parameters for its own integrator do not apply to
+            // the one the command line chose.
+            for key in file.integrator.drop_keys_of_others() {
+                self.warn(format!(
+                    "`integrator.{key}` does not apply to `{}` (chosen by --integrator): ignored",
+                    file.integrator.kind.name()
+                ));
+            }
+        }
 
         let film = self.film(&file)?;
         let integrator = self.integrator(&mut file)?;
