@@ -8,8 +8,7 @@
 mod common;
 
 use common::agree::{
-    assert_integrators_agree, assert_scenes_agree, block_estimates, cornell_box, tilted_floor_obj,
-    DELTA_LIGHTS, GLASS_METAL_SHADING, TILTED_FLOOR,
+    assert_integrators_agree, block_estimates, cornell_box, DELTA_LIGHTS, GLASS_METAL_SHADING,
 };
 use common::caustic;
 use glam::DVec3;
@@ -30,16 +29,7 @@ fn bdpt_matches_the_path_tracer_through_glass_metal_and_shading_normals() {
 
 #[test]
 fn bdpt_applies_the_shading_normal_correction() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("floor.obj"), tilted_floor_obj()).unwrap();
-    let load = |kind: &str| {
-        prism::scene::load_str(
-            &format!("{TILTED_FLOOR}\n[integrator]\ntype = \"{kind}\"\n"),
-            dir.path(),
-        )
-        .unwrap()
-    };
-    assert_scenes_agree(&load("path"), &load("bdpt"), "tilted shading normals");
+    common::agree::assert_tilted_floor_agrees("bdpt");
 }
 
 #[test]

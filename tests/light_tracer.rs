@@ -11,10 +11,7 @@
 
 mod common;
 
-use common::agree::{
-    assert_integrators_agree, assert_scenes_agree, cornell_box, tilted_floor_obj, DELTA_LIGHTS,
-    GLASS_METAL_SHADING, TILTED_FLOOR,
-};
+use common::agree::{assert_integrators_agree, cornell_box, DELTA_LIGHTS, GLASS_METAL_SHADING};
 
 #[test]
 fn light_tracer_matches_the_path_tracer_on_the_cornell_box() {
@@ -34,16 +31,7 @@ fn light_tracer_matches_the_path_tracer_through_glass_metal_and_shading_normals(
 fn light_tracer_applies_the_shading_normal_correction() {
     // With the correction removed, this test fails (8σ off in the first
     // block).
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("floor.obj"), tilted_floor_obj()).unwrap();
-    let load = |kind: &str| {
-        prism::scene::load_str(
-            &format!("{TILTED_FLOOR}\n[integrator]\ntype = \"{kind}\"\n"),
-            dir.path(),
-        )
-        .unwrap()
-    };
-    assert_scenes_agree(&load("path"), &load("light"), "tilted shading normals");
+    common::agree::assert_tilted_floor_agrees("light");
 }
 
 #[test]

@@ -31,9 +31,10 @@ use std::cell::RefCell;
 
 use glam::{Vec2, Vec3};
 
-use super::interface::{media_at, scatter, trace, Next};
+use super::interface::{scatter, trace, Next};
 use super::ior_stack::IorStack;
-use super::{PathCounters, PixelSample};
+use super::light_path;
+use super::{russian_roulette, PathCounters, PixelSample};
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -389,34 +390,32 @@ impl Bdpt {
         u_first: [f32; 4],
         counters: &mut PathCounters,
     ) {
-        let Some((index, pmf)) = scene.lights.choose(u_light) else {
+        let Some(start) = light_path::start(
+            scene,
+            u_light,
+            (u_le[0], u_le[1]),
+            (u_le[2], u_le[3]),
+            wl,
+            counters,
+        ) else {
             return;
         };
-        let light = scene.lights.get(index);
-        let Some(les) = light.sample_le((u_le[0], u_le[1]), (u_le[2], u_le[3]), wl) else {
-            return;
-        };
+        let light = scene.lights.get(start.light);
+        let les = start.emitted;
         let lp = les.point;
-        let on_surface = !light.is_delta() && !light.is_infinite();
-        let mut origin = Vertex::new(Kind::Light, lp.p, les.le / (pmf * les.pdf_pos));
+        let pdf_origin = start.pmf * les.pdf_pos;
+        let mut origin = Vertex::new(Kind::Light, lp.p, les.le / pdf_origin);
         origin.p_err = lp.p_err;
         origin.uv = lp.uv;
-        origin.light = Some(index);
-        if on_surface {
-            origin.ng = lp.n;
-        }
+        origin.light = Some(start.light);
+        origin.ng = start.n;
         origin.pdf_fwd = if light.is_infinite() {
             infinite_density(scene, lp.p, -les.dir)
         } else {
-            pmf * les.pdf_pos
+            pdf_origin
         };
         path.push(origin);
 
-        let cos = lp.n.dot(les.dir).abs();
-        let beta = les.le * (cos / (pmf * les.pdf_pos * les.pdf_dir));
-        let n = if on_surface { lp.n } else { Vec3::ZERO };
-        let stack = media_at(scene, lp.p, lp.p_err, n, counters);
-        let ray = Ray::new(offset_ray_origin(lp.p, lp.p_err, n, les.dir), les.dir);
         let walk = Walk {
             mode: TransportMode::Importance,
             max_vertices: self.max_depth as usize + 1,
@@ -424,10 +423,10 @@ impl Bdpt {
         };
         walk.run(
             scene,
-            ray,
-            beta,
+            start.ray,
+            start.beta,
             les.pdf_dir,
-            stack,
+            start.stack,
             path,
             wl,
             sampler,
@@ -550,19 +549,10 @@ impl Walk {
                 eta_scale *= bs.eta * bs.eta;
             }
 
-            // Russian roulette, as the path tracer does it. The survivors'
-            // weight keeps each strategy unbiased; the MIS densities leave
-            // roulette out, which changes only how strategies share a path.
-            let max_beta = beta.max_element();
-            let rr_beta = max_beta * eta_scale;
-            if bounces >= self.rr_depth && rr_beta < 1.0 {
-                let q = (1.0 - rr_beta).max(0.0);
-                if u_rr < q {
-                    break;
-                }
-                beta /= 1.0 - q;
-            }
-            if !(max_beta > 0.0) {
+            // The survivors' weight keeps each strategy unbiased; the MIS
+            // densities leave roulette out, which changes only how
+            // strategies share a path.
+            if !russian_roulette(&mut beta, eta_scale, bounces, self.rr_depth, u_rr) {
                 break;
             }
         }

@@ -13,8 +13,9 @@
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::interface::{media_at, scatter, trace, Next};
-use super::{PathCounters, PixelSample};
+use super::interface::{scatter, trace, Next};
+use super::light_path;
+use super::{russian_roulette, PathCounters, PixelSample};
 use crate::camera::CameraSample;
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
@@ -59,34 +60,28 @@ impl LightTracer {
             l: SampledSpectrum::ZERO,
             wl,
         };
-        let Some((index, pmf)) = scene.lights.choose(u_light) else {
+        let Some(start) = light_path::start(scene, u_light, (p0, p1), (d0, d1), &wl, counters)
+        else {
             return none(wl);
         };
-        let light = scene.lights.get(index);
-        let Some(les) = light.sample_le((p0, p1), (d0, d1), &wl) else {
-            return none(wl);
-        };
-        let lp = les.point;
+        let light = scene.lights.get(start.light);
+        let (lp, pdf_pos) = (start.emitted.point, start.emitted.pdf_pos);
 
         // The light itself, seen by the camera: only a surface can be (a
         // point, a direction or the sky has no `l`).
-        let seen = !light.is_delta() && !light.is_infinite();
+        let seen = start.n != Vec3::ZERO;
         if let Some(cs) = scene.camera.sample_wi(lp.p).filter(|_| seen) {
             let le = light.l(lp.uv, cs.wi, &wl);
             let cos = lp.n.dot(cs.wi).abs();
             if le != SampledSpectrum::ZERO
                 && self.visible(scene, lp.p, lp.p_err, lp.n, &cs, counters)
             {
-                let l = le * (cs.weight * cos / (pmf * les.pdf_pos));
+                let l = le * (cs.weight * cos / (start.pmf * pdf_pos));
                 splat(tile, scene, &cs, l, &wl);
             }
         }
 
-        let cos = lp.n.dot(les.dir).abs();
-        let mut beta = les.le * (cos / (pmf * les.pdf_pos * les.pdf_dir));
-        let mut ray = Ray::new(offset_ray_origin(lp.p, lp.p_err, lp.n, les.dir), les.dir);
-        let n = if seen { lp.n } else { Vec3::ZERO };
-        let mut stack = media_at(scene, lp.p, lp.p_err, n, counters);
+        let (mut beta, mut ray, mut stack) = (start.beta, start.ray, start.stack);
         let mut depth = 0;
         while depth < self.max_depth {
             let Next::Surface { hit, eta, medium } =
@@ -125,17 +120,8 @@ impl LightTracer {
             ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
             scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
 
-            // Russian roulette, as the path tracer does it (importance is
-            // not scaled at refraction, so no η² bookkeeping is needed).
-            let max_beta = beta.max_element();
-            if depth >= self.rr_depth && max_beta < 1.0 {
-                let q = (1.0 - max_beta).max(0.0);
-                if u_rr < q {
-                    break;
-                }
-                beta /= 1.0 - q;
-            }
-            if !(max_beta > 0.0) {
+            // Importance is not scaled at refraction: no η'² to undo.
+            if !russian_roulette(&mut beta, 1.0, depth, self.rr_depth, u_rr) {
                 break;
             }
         }

@@ -12,6 +12,7 @@
 mod bdpt;
 mod interface;
 pub mod ior_stack;
+mod light_path;
 mod light_tracer;
 mod path;
 mod sppm;
@@ -320,6 +321,33 @@ impl Integrator {
             }
         }
     }
+}
+
+/// Russian roulette after `depth` bounces: ends a path of throughput `beta`
+/// with probability 1 − max(β)·`eta_scale` once past `rr_depth`, and
+/// reweights the survivors so the estimate stays unbiased. `eta_scale` is
+/// the product of η'² over the path's transmissions for radiance (which
+/// refraction scales by 1/η'², a change of units roulette must not mistake
+/// for a dim path), 1 for importance. Returns whether the path goes on (not
+/// when its throughput is zero or not a number).
+#[inline]
+pub fn russian_roulette(
+    beta: &mut SampledSpectrum,
+    eta_scale: f32,
+    depth: u32,
+    rr_depth: u32,
+    u: f32,
+) -> bool {
+    let max_beta = beta.max_element();
+    let rr_beta = max_beta * eta_scale;
+    if depth >= rr_depth && rr_beta < 1.0 {
+        let q = (1.0 - rr_beta).max(0.0);
+        if u < q {
+            return false;
+        }
+        *beta /= 1.0 - q;
+    }
+    max_beta > 0.0
 }
 
 /// Veach's power heuristic (β = 2) for two strategies with one sample each.

@@ -5,7 +5,7 @@
 
 use super::interface::{scatter, trace, Next};
 use super::ior_stack::IorStack;
-use super::{power_heuristic, PathCounters, Strategy};
+use super::{power_heuristic, russian_roulette, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, ShadingGeometry, TransportMode};
@@ -160,19 +160,7 @@ impl PathTracer {
                 eta_scale *= bs.eta * bs.eta;
             }
 
-            // Russian roulette: end dim paths with probability 1 − max(β), and
-            // reweight the survivors so the estimate stays unbiased.
-            let u = u_rr;
-            let max_beta = beta.max_element();
-            let rr_beta = max_beta * eta_scale;
-            if depth >= self.rr_depth && rr_beta < 1.0 {
-                let q = (1.0 - rr_beta).max(0.0);
-                if u < q {
-                    break;
-                }
-                beta /= 1.0 - q;
-            }
-            if max_beta <= 0.0 {
+            if !russian_roulette(&mut beta, eta_scale, depth, self.rr_depth, u_rr) {
                 break;
             }
         }

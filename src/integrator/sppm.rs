@@ -33,9 +33,10 @@ use std::sync::OnceLock;
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::interface::{media_at, scatter, trace, Next};
+use super::interface::{scatter, trace, Next};
+use super::light_path;
 use super::path::{PathTracer, Stop};
-use super::{PathCounters, PixelSample, Strategy};
+use super::{russian_roulette, PathCounters, PixelSample, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, BsdfFlags, ShadingGeometry, TransportMode};
@@ -302,20 +303,11 @@ impl Sppm {
         let [u_lambda, u_light, p0, p1] = sampler.next_4d();
         let [d0, d1, _, _] = sampler.next_4d();
         let mut wl = SampledWavelengths::sample_visible(u_lambda);
-        let Some((index, pmf)) = scene.lights.choose(u_light) else {
+        let Some(start) = light_path::start(scene, u_light, (p0, p1), (d0, d1), &wl, counters)
+        else {
             return;
         };
-        let light = scene.lights.get(index);
-        let Some(les) = light.sample_le((p0, p1), (d0, d1), &wl) else {
-            return;
-        };
-        let lp = les.point;
-        let on_surface = !light.is_delta() && !light.is_infinite();
-        let n = if on_surface { lp.n } else { Vec3::ZERO };
-        let cos = lp.n.dot(les.dir).abs();
-        let mut beta = les.le * (cos / (pmf * les.pdf_pos * les.pdf_dir));
-        let mut ray = Ray::new(offset_ray_origin(lp.p, lp.p_err, n, les.dir), les.dir);
-        let mut stack = media_at(scene, lp.p, lp.p_err, n, counters);
+        let (mut beta, mut ray, mut stack) = (start.beta, start.ray, start.stack);
         let mut depth = 0;
         while depth < self.max_depth {
             let Next::Surface { hit, eta, medium } =
@@ -358,15 +350,7 @@ impl Sppm {
             beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
             ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
             scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
-            let max_beta = beta.max_element();
-            if depth >= self.rr_depth && max_beta < 1.0 {
-                let q = (1.0 - max_beta).max(0.0);
-                if u_rr < q {
-                    break;
-                }
-                beta /= 1.0 - q;
-            }
-            if !(max_beta > 0.0) {
+            if !russian_roulette(&mut beta, 1.0, depth, self.rr_depth, u_rr) {
                 break;
             }
         }

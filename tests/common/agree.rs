@@ -171,8 +171,23 @@ vertices = [[-3, 2, 1], [-1, 2, 1], [-1, 2, 3], [-3, 2, 3]]
 emission = 4
 "#;
 
+/// `TILTED_FLOOR` rendered by the path tracer and by integrator `kind`
+/// agree.
+pub fn assert_tilted_floor_agrees(kind: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("floor.obj"), tilted_floor_obj()).unwrap();
+    let load = |kind: &str| {
+        prism::scene::load_str(
+            &format!("{TILTED_FLOOR}\n[integrator]\ntype = \"{kind}\"\n"),
+            dir.path(),
+        )
+        .unwrap()
+    };
+    assert_scenes_agree(&load("path"), &load(kind), "tilted shading normals");
+}
+
 /// The OBJ of `TILTED_FLOOR`.
-pub fn tilted_floor_obj() -> String {
+fn tilted_floor_obj() -> String {
     let n = (30f32.to_radians().sin(), 30f32.to_radians().cos());
     format!(
         "v -3 0 -3\nv 3 0 -3\nv 3 0 3\nv -3 0 3\nvn {} {} 0\nf 1//1 4//1 3//1 2//1\n",
