@@ -31,14 +31,14 @@ use std::cell::RefCell;
 
 use glam::{Vec2, Vec3};
 
-use super::interface::{scatter, trace, Next};
+use super::interface::{bsdf_at, scatter, trace, Next};
 use super::ior_stack::IorStack;
 use super::light_path;
 use super::{russian_roulette, PathCounters, PixelSample};
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::material::{Bsdf, ShadingGeometry, TransportMode};
+use crate::material::{Bsdf, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -494,13 +494,7 @@ impl Walk {
                 Next::Lost => break,
             };
             let wo = -ray.dir;
-            let material = &scene.materials[hit.material as usize];
-            let geom = ShadingGeometry {
-                ng: hit.ng,
-                ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
-                wo,
-            };
-            let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
+            let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
             let mut v = Vertex::new(Kind::Surface, hit.p, beta);
             v.p_err = hit.p_err;
             v.ng = hit.ng;

@@ -9,6 +9,7 @@ use super::ior_stack::{Crossing, IorStack, Medium};
 use super::PathCounters;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
+use crate::material::{Bsdf, ShadingGeometry};
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -72,6 +73,26 @@ pub fn trace(
         }
     }
     Next::Lost
+}
+
+/// The BSDF at a real surface `hit`, met by a path arriving from `wo`
+/// (unit, pointing back along the path), at its wavelengths (which a smooth
+/// dispersive surface may end); `eta` is what `trace` found there.
+#[inline]
+pub fn bsdf_at(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    wo: Vec3,
+    wl: &mut SampledWavelengths,
+    eta: SampledSpectrum,
+) -> Bsdf {
+    let material = &scene.materials[hit.material as usize];
+    let geom = ShadingGeometry {
+        ng: hit.ng,
+        ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
+        wo,
+    };
+    material.bsdf(&geom, hit.uv, wl, eta)
 }
 
 /// The index of refraction of a dielectric material at the path's wavelengths.

@@ -13,14 +13,14 @@
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::interface::{scatter, trace, Next};
+use super::interface::{bsdf_at, scatter, trace, Next};
 use super::light_path;
 use super::{russian_roulette, PathCounters, PixelSample};
 use crate::camera::CameraSample;
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::material::{ShadingGeometry, TransportMode};
+use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -91,13 +91,7 @@ impl LightTracer {
             };
             depth += 1;
             let wo = -ray.dir;
-            let material = &scene.materials[hit.material as usize];
-            let geom = ShadingGeometry {
-                ng: hit.ng,
-                ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
-                wo,
-            };
-            let bsdf = material.bsdf(&geom, hit.uv, &mut wl, eta);
+            let bsdf = bsdf_at(scene, &hit, wo, &mut wl, eta);
 
             // Connect to the camera (Dirac lobes cannot turn towards it).
             if !bsdf.is_specular() {

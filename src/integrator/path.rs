@@ -3,12 +3,12 @@
 //! (power heuristic), and Russian roulette. Each path carries the stack of
 //! dielectric media it is inside.
 
-use super::interface::{scatter, trace, Next};
+use super::interface::{bsdf_at, scatter, trace, Next};
 use super::ior_stack::IorStack;
 use super::{power_heuristic, russian_roulette, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::material::{Bsdf, ShadingGeometry, TransportMode};
+use crate::material::{Bsdf, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -99,7 +99,6 @@ impl PathTracer {
                 Next::Lost => break,
             };
             let wo = -ray.dir;
-            let material = &scene.materials[hit.material as usize];
 
             if let Some(i) = hit.light {
                 let light = scene.lights.get(i);
@@ -117,12 +116,7 @@ impl PathTracer {
             }
             depth += 1;
 
-            let geom = ShadingGeometry {
-                ng: hit.ng,
-                ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
-                wo,
-            };
-            let bsdf = material.bsdf(&geom, hit.uv, wl, eta);
+            let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
             let at = Stop {
                 hit: &hit,
                 wo,

@@ -33,13 +33,13 @@ use std::sync::OnceLock;
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::interface::{scatter, trace, Next};
+use super::interface::{bsdf_at, scatter, trace, Next};
 use super::light_path;
 use super::path::{PathTracer, Stop};
 use super::{russian_roulette, PathCounters, PixelSample, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::material::{Bsdf, BsdfFlags, ShadingGeometry, TransportMode};
+use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -317,13 +317,7 @@ impl Sppm {
             };
             depth += 1;
             let wo = -ray.dir;
-            let material = &scene.materials[hit.material as usize];
-            let geom = ShadingGeometry {
-                ng: hit.ng,
-                ns: material.shading_normal(hit.ns, hit.tangent, hit.uv),
-                wo,
-            };
-            let bsdf = material.bsdf(&geom, hit.uv, &mut wl, eta);
+            let bsdf = bsdf_at(scene, &hit, wo, &mut wl, eta);
             if depth >= 2 && bsdf.flags().contains(BsdfFlags::DIFFUSE) {
                 let mut weight = Vec4::ZERO;
                 for k in 0..4 {
