@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 
-use crate::film::output::write_rgb_exr;
+use crate::film::output::{read_rgb_exr, write_rgb_exr};
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
 
@@ -47,30 +47,6 @@ pub fn process_cpu_time() -> Duration {
     };
     let t = |tv: libc::timeval| Duration::new(tv.tv_sec as u64, tv.tv_usec as u32 * 1000);
     t(usage.ru_utime) + t(usage.ru_stime)
-}
-
-/// Reads a linear RGB OpenEXR (the first layer's R, G, B).
-pub fn read_rgb_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
-    use exr::prelude::*;
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |resolution, _| {
-            (
-                resolution.width(),
-                vec![Vec3::ZERO; resolution.width() * resolution.height()],
-            )
-        },
-        |(width, pixels), position, (r, g, b, _a): (f32, f32, f32, f32)| {
-            pixels[position.y() * *width + position.x()] = Vec3::new(r, g, b);
-        },
-    )
-    .with_context(|| format!("cannot read {}", path.display()))?;
-    let size = image.layer_data.size;
-    Ok((
-        size.width() as u32,
-        size.height() as u32,
-        image.layer_data.channel_data.pixels.1,
-    ))
 }
 
 /// One rung of the ladder.

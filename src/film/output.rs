@@ -101,3 +101,27 @@ pub fn write_rgb_png(
             .with_context(|| format!("cannot write {}", tmp.display()))
     })
 }
+
+/// Reads a linear RGB OpenEXR (the first layer's R, G, B).
+pub fn read_rgb_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| {
+            (
+                resolution.width(),
+                vec![Vec3::ZERO; resolution.width() * resolution.height()],
+            )
+        },
+        |(width, pixels), position, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[position.y() * *width + position.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .with_context(|| format!("cannot read {}", path.display()))?;
+    let size = image.layer_data.size;
+    Ok((
+        size.width() as u32,
+        size.height() as u32,
+        image.layer_data.channel_data.pixels.1,
+    ))
+}

@@ -14,6 +14,7 @@
 mod area;
 mod directional;
 mod environment;
+mod environment_map;
 mod point;
 mod selection;
 
@@ -24,6 +25,7 @@ use glam::{Vec2, Vec3};
 pub use area::AreaLight;
 pub use directional::DirectionalLight;
 pub use environment::UniformEnvironment;
+pub use environment_map::EnvironmentMap;
 pub use point::{Cone, PointLight};
 pub use selection::PowerSelection;
 
@@ -145,6 +147,8 @@ pub enum Light {
     Directional(DirectionalLight),
     /// The same radiance from every direction at infinity.
     Environment(UniformEnvironment),
+    /// Radiance at infinity from an equirectangular image.
+    EnvironmentMap(EnvironmentMap),
 }
 
 impl Light {
@@ -153,7 +157,7 @@ impl Light {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Light::Area(_) | Light::Environment(_) => false,
+            Light::Area(_) | Light::Environment(_) | Light::EnvironmentMap(_) => false,
             Light::Point(_) | Light::Directional(_) => true,
         }
     }
@@ -162,7 +166,10 @@ impl Light {
     /// scene's bounds (`with_scene_bounds`).
     #[inline]
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Directional(_) | Light::Environment(_))
+        matches!(
+            self,
+            Light::Directional(_) | Light::Environment(_) | Light::EnvironmentMap(_)
+        )
     }
 
     /// The light for a scene within `sphere`.
@@ -170,6 +177,7 @@ impl Light {
         match self {
             Light::Directional(l) => Light::Directional(l.with_scene(sphere)),
             Light::Environment(l) => Light::Environment(l.with_scene(sphere)),
+            Light::EnvironmentMap(l) => Light::EnvironmentMap(l.with_scene(sphere)),
             other => other,
         }
     }
@@ -181,6 +189,7 @@ impl Light {
             Light::Point(l) => l.power(),
             Light::Directional(l) => l.power(),
             Light::Environment(l) => l.power(),
+            Light::EnvironmentMap(l) => l.power(),
         }
     }
 
@@ -196,6 +205,7 @@ impl Light {
             Light::Point(l) => l.sample_li(p_ref, wl),
             Light::Directional(l) => l.sample_li(wl),
             Light::Environment(l) => l.sample_li(u, wl),
+            Light::EnvironmentMap(l) => l.sample_li(u, wl),
         }
     }
 
@@ -204,10 +214,11 @@ impl Light {
     /// as it does for lights at infinity). Zero for delta lights: no ray
     /// finds them.
     #[inline]
-    pub fn pdf_li(&self, p_ref: Vec3, _wi: Vec3, p_light: Option<Vec3>) -> f32 {
+    pub fn pdf_li(&self, p_ref: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
         match (self, p_light) {
             (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
             (Light::Environment(l), None) => l.pdf_li(),
+            (Light::EnvironmentMap(l), None) => l.pdf_li(wi),
             _ => 0.0,
         }
     }
@@ -218,18 +229,21 @@ impl Light {
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Area(l) => l.l(uv, w, wl),
-            Light::Point(_) | Light::Directional(_) | Light::Environment(_) => {
-                SampledSpectrum::ZERO
-            }
+            Light::Point(_)
+            | Light::Directional(_)
+            | Light::Environment(_)
+            | Light::EnvironmentMap(_) => SampledSpectrum::ZERO,
         }
     }
 
     /// Radiance arriving along an escaped ray of direction `dir` from a
     /// light at infinity that has extent (a directional light has none).
     #[inline]
-    pub fn le(&self, _dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+    pub fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Environment(l) => l.le(wl),
+            // `dir` travels away from the scene: the sky seen that way.
+            Light::EnvironmentMap(l) => l.radiance(dir, wl),
             _ => SampledSpectrum::ZERO,
         }
     }
@@ -245,6 +259,7 @@ impl Light {
             Light::Point(l) => l.sample_le(u_dir, wl),
             Light::Directional(l) => l.sample_le(u_pos, wl),
             Light::Environment(l) => l.sample_le(u_pos, u_dir, wl),
+            Light::EnvironmentMap(l) => l.sample_le(u_pos, u_dir, wl),
         }
     }
 
@@ -256,6 +271,7 @@ impl Light {
             Light::Point(l) => l.pdf_le(dir),
             Light::Directional(l) => l.pdf_le(),
             Light::Environment(l) => l.pdf_le(),
+            Light::EnvironmentMap(l) => l.pdf_le(dir),
         }
     }
 }

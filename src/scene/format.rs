@@ -32,14 +32,19 @@ pub struct SceneFile {
     pub environment: Option<EnvironmentSpec>,
 }
 
-/// The `[environment]` table: for now a constant radiance.
+/// The `[environment]` table: a constant radiance, or an equirectangular
+/// image.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EnvironmentSpec {
     /// Radiance from every direction, a spectrum.
-    pub radiance: SpectrumSpec,
-    /// Multiplies `radiance`.
+    pub radiance: Option<SpectrumSpec>,
+    /// An equirectangular map: .exr or .hdr (linear), or PNG/JPEG (sRGB).
+    pub file: Option<String>,
+    /// Multiplies the radiance.
     pub scale: Option<f32>,
+    /// Degrees about the up axis (+y), maps only.
+    pub rotate: Option<f32>,
 }
 
 /// A `[[light]]`: a point, spot or directional light (area lights are

@@ -7,8 +7,8 @@ use glam::Vec3;
 
 use super::spectra::Role;
 use super::{Loader, MAX_COORDINATE};
-use crate::light::{Cone, DirectionalLight, Light, PointLight, UniformEnvironment};
-use crate::scene::format::{LightKind, LightSpec, SceneFile};
+use crate::light::{Cone, DirectionalLight, EnvironmentMap, Light, PointLight, UniformEnvironment};
+use crate::scene::format::{EnvironmentSpec, LightKind, LightSpec, SceneFile};
 use crate::scene::SceneError;
 use crate::spectrum::Spectrum;
 
@@ -21,16 +21,41 @@ impl Loader {
             .map(|(i, spec)| self.light(spec, file, &format!("light[{i}]")))
             .collect::<Result<Vec<_>, _>>()?;
         if let Some(env) = &file.environment {
-            let scale = env.scale.unwrap_or(1.0);
-            if !(scale >= 0.0) {
-                return Err(self.error("`environment.scale` must not be negative"));
-            }
-            let radiance = self
-                .spectrum(&env.radiance, Role::Emission, file, "environment.radiance")?
-                .scaled(scale);
-            lights.push(Light::Environment(UniformEnvironment::new(radiance)));
+            lights.push(self.environment(env, file)?);
         }
         Ok(lights)
+    }
+
+    fn environment(&self, env: &EnvironmentSpec, file: &SceneFile) -> Result<Light, SceneError> {
+        let scale = env.scale.unwrap_or(1.0);
+        if !(scale >= 0.0) {
+            return Err(self.error("`environment.scale` must not be negative"));
+        }
+        match (&env.radiance, &env.file) {
+            (Some(radiance), None) => {
+                if env.rotate.is_some() {
+                    return Err(self.error(
+                        "`environment.rotate` applies to a map (`file`), not to a constant `radiance`",
+                    ));
+                }
+                let radiance = self
+                    .spectrum(radiance, Role::Emission, file, "environment.radiance")?
+                    .scaled(scale);
+                Ok(Light::Environment(UniformEnvironment::new(radiance)))
+            }
+            (None, Some(rel)) => {
+                let path = self.base.join(rel);
+                let (w, h, rgb) = read_radiance_image(&path)
+                    .map_err(|e| self.error(format!("`environment.file`: {e}")))?;
+                let rotate = env.rotate.unwrap_or(0.0);
+                Ok(Light::EnvironmentMap(EnvironmentMap::new(
+                    w as usize, h as usize, &rgb, scale, rotate,
+                )))
+            }
+            _ => Err(self.error(
+                "`[environment]` takes either `radiance` (a constant sky) or `file` (a map)",
+            )),
+        }
     }
 
     fn light(&self, spec: &LightSpec, file: &SceneFile, key: &str) -> Result<Light, SceneError> {
@@ -153,4 +178,69 @@ impl Loader {
             }
         }
     }
+}
+
+/// Largest environment map side (texels); a map is kept as 16 bytes a texel
+/// plus its sampling tables.
+const MAX_MAP_SIDE: u32 = 16384;
+
+/// An environment map's texels as linear RGB, rows from the top: OpenEXR
+/// and Radiance HDR are linear; other images (PNG, JPEG, …) are sRGB-encoded.
+/// Refuses non-finite or negative radiance, naming the first such texel.
+fn read_radiance_image(path: &std::path::Path) -> Result<(u32, u32, Vec<Vec3>), String> {
+    let name = path.display();
+    let meta = std::fs::metadata(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err(format!("{name}: not a regular file"));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    let (w, h, rgb) = if ext == "exr" {
+        crate::film::output::read_rgb_exr(path).map_err(|e| format!("{e:#}"))?
+    } else {
+        let bytes = std::fs::read(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+        let image =
+            image::load_from_memory(&bytes).map_err(|e| format!("{name}: cannot decode: {e}"))?;
+        let linear = ext == "hdr";
+        let (w, h) = (image.width(), image.height());
+        let rgb = image
+            .to_rgb32f()
+            .pixels()
+            .map(|p| {
+                let c = Vec3::new(p[0], p[1], p[2]);
+                if linear {
+                    c
+                } else {
+                    Vec3::new(
+                        crate::spectrum::cie::srgb_decode(c.x),
+                        crate::spectrum::cie::srgb_decode(c.y),
+                        crate::spectrum::cie::srgb_decode(c.z),
+                    )
+                }
+            })
+            .collect();
+        (w, h, rgb)
+    };
+    if w == 0 || h == 0 {
+        return Err(format!("{name}: the image is empty"));
+    }
+    if w > MAX_MAP_SIDE || h > MAX_MAP_SIDE {
+        return Err(format!(
+            "{name}: {w}x{h} texels; an environment map may have at most {MAX_MAP_SIDE} a side"
+        ));
+    }
+    if let Some(k) = rgb
+        .iter()
+        .position(|c| !(c.is_finite() && c.min_element() >= 0.0))
+    {
+        let (x, y) = (k as u32 % w, k as u32 / w);
+        return Err(format!(
+            "{name}: texel ({x}, {y}) is {}: radiance must be finite and not negative",
+            rgb[k]
+        ));
+    }
+    Ok((w, h, rgb))
 }

@@ -1,0 +1,362 @@
+//! An environment map: radiance at infinity from an equirectangular
+//! (latitude-longitude) image, +y up. The top row is the zenith, the
+//! image's centre looks along +z (what a camera looking along +z sees), and
+//! u grows towards +x. `rotate` turns the map about +y (positive: from +z
+//! towards +x).
+//!
+//! RGB radiance becomes a spectrum the way an illuminant does: each texel's
+//! chromaticity as a smooth spectrum (Jakob–Hanika) times D65, normalised so
+//! that RGB (1, 1, 1) has luminance 1 (pbrt-v4's RGBIlluminantSpectrum).
+//! Texels are constant over their solid angle (nearest lookup), and light
+//! sampling picks them with a piecewise-constant 2D distribution
+//! proportional to luminance × sin θ, so directions follow the radiance.
+
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+
+use super::{LightLeSample, LightLiSample, LightPoint, SceneSphere};
+use crate::spectrum::cie;
+use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
+
+/// A piecewise-constant distribution over [0, 1)² on a grid of cells.
+#[derive(Clone, Debug)]
+struct Distribution2d {
+    width: usize,
+    height: usize,
+    /// Per row: the cumulative sums of its cells, normalised (len width + 1).
+    conditional: Vec<f32>,
+    /// Cumulative row sums, normalised (len height + 1).
+    marginal: Vec<f32>,
+    /// Each cell's probability.
+    cell: Vec<f32>,
+}
+
+/// Index i with cdf[i] ≤ u < cdf[i + 1] (skipping empty cells), and the
+/// position of u within it.
+fn invert(cdf: &[f32], u: f32) -> (usize, f32) {
+    let n = cdf.len() - 1;
+    let i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
+    let width = cdf[i + 1] - cdf[i];
+    let t = if width > 0.0 {
+        ((u - cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+    } else {
+        0.5
+    };
+    (i, t)
+}
+
+fn cumulative(weights: &[f64]) -> (Vec<f32>, f64) {
+    let total: f64 = weights.iter().sum();
+    let mut cdf = Vec::with_capacity(weights.len() + 1);
+    let mut sum = 0.0;
+    cdf.push(0.0);
+    for w in weights {
+        sum += w;
+        cdf.push(if total > 0.0 {
+            (sum / total) as f32
+        } else {
+            0.0
+        });
+    }
+    *cdf.last_mut().expect("one entry at least") = 1.0;
+    (cdf, total)
+}
+
+impl Distribution2d {
+    fn new(weights: &[f64], width: usize, height: usize) -> Self {
+        let total: f64 = weights.iter().sum();
+        let mut conditional = Vec::with_capacity(height * (width + 1));
+        let mut rows = Vec::with_capacity(height);
+        for row in weights.chunks_exact(width) {
+            let (cdf, sum) = cumulative(row);
+            conditional.extend(cdf);
+            rows.push(sum);
+        }
+        let (marginal, _) = cumulative(&rows);
+        let cell = weights
+            .iter()
+            .map(|w| if total > 0.0 { (w / total) as f32 } else { 0.0 })
+            .collect();
+        Self {
+            width,
+            height,
+            conditional,
+            marginal,
+            cell,
+        }
+    }
+
+    /// A point of [0, 1)² and its density there.
+    fn sample(&self, u: (f32, f32)) -> (Vec2, f32) {
+        let (j, tv) = invert(&self.marginal, u.1);
+        let row = &self.conditional[j * (self.width + 1)..(j + 1) * (self.width + 1)];
+        let (i, tu) = invert(row, u.0);
+        let p = Vec2::new(
+            (i as f32 + tu) / self.width as f32,
+            (j as f32 + tv) / self.height as f32,
+        );
+        (p, self.pdf_cell(i, j))
+    }
+
+    fn pdf_cell(&self, i: usize, j: usize) -> f32 {
+        self.cell[j * self.width + i] * (self.width * self.height) as f32
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct EnvironmentMap {
+    width: usize,
+    height: usize,
+    /// Per texel: sigmoid coefficients and scale (user scale and the D65
+    /// normalisation included).
+    texels: Vec<[f32; 4]>,
+    d65: Spectrum,
+    distribution: Distribution2d,
+    /// Rotation about +y, as cos and sin.
+    rotation: (f32, f32),
+    /// Mean luminance over the sphere (for the light's power).
+    mean_luminance: f64,
+    scene: SceneSphere,
+}
+
+impl EnvironmentMap {
+    /// A map of `width` × `height` linear sRGB radiances, rows from the top,
+    /// times `scale`, turned by `rotate_degrees` about +y. Values must be
+    /// finite and not negative (the loader checks, naming the file).
+    pub fn new(width: usize, height: usize, rgb: &[Vec3], scale: f32, rotate_degrees: f32) -> Self {
+        assert_eq!(rgb.len(), width * height);
+        let d65 = cie::d65();
+        let y_d65 = cie::spectrum_to_xyz(&Spectrum::Table(d65.clone())).y;
+        let mut texels = Vec::with_capacity(rgb.len());
+        let mut weights = Vec::with_capacity(rgb.len());
+        let mut luminance_integral = 0.0f64;
+        for (k, &c) in rgb.iter().enumerate() {
+            let c = c.max(Vec3::ZERO) * scale;
+            let (s, sc) = rgb2spec::unbounded(c);
+            texels.push([s.c[0], s.c[1], s.c[2], sc / y_d65]);
+            let y = (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64;
+            let row = k / width;
+            let theta = PI * (row as f32 + 0.5) / height as f32;
+            weights.push(y * theta.sin() as f64);
+            // Solid angle of the texel: Δφ (cos θ₀ − cos θ₁).
+            let (t0, t1) = (
+                PI * row as f32 / height as f32,
+                PI * (row + 1) as f32 / height as f32,
+            );
+            luminance_integral += y * (2.0 * PI / width as f32 * (t0.cos() - t1.cos())) as f64;
+        }
+        let a = rotate_degrees.to_radians();
+        Self {
+            width,
+            height,
+            texels,
+            d65: Spectrum::Table(d65.clone()),
+            distribution: Distribution2d::new(&weights, width, height),
+            rotation: (a.cos(), a.sin()),
+            mean_luminance: luminance_integral / (4.0 * PI as f64),
+            scene: SceneSphere::default(),
+        }
+    }
+
+    /// The same light for a scene within `scene`.
+    pub fn with_scene(self, scene: SceneSphere) -> Self {
+        Self { scene, ..self }
+    }
+
+    /// Mean luminance × 4π × the scene's cross-section.
+    pub fn power(&self) -> f64 {
+        let r = self.scene.radius as f64;
+        self.mean_luminance * 4.0 * std::f64::consts::PI * std::f64::consts::PI * r * r
+    }
+
+    /// World direction (towards the sky) → map coordinates in [0, 1)².
+    fn uv(&self, w: Vec3) -> Vec2 {
+        let (c, s) = self.rotation;
+        // Undo the rotation about +y.
+        let x = c * w.x - s * w.z;
+        let z = s * w.x + c * w.z;
+        let u = 0.5 * (1.0 + x.atan2(z) / PI);
+        let v = w.y.clamp(-1.0, 1.0).acos() / PI;
+        Vec2::new(u.rem_euclid(1.0), v.min(1.0 - f32::EPSILON))
+    }
+
+    /// Map coordinates → world direction, and sin θ.
+    fn direction(&self, uv: Vec2) -> (Vec3, f32) {
+        let phi = (2.0 * uv.x - 1.0) * PI;
+        let theta = uv.y * PI;
+        let (sin_t, cos_t) = theta.sin_cos();
+        // In the map's frame: atan2(x, z) = φ.
+        let (x, z) = (sin_t * phi.sin(), sin_t * phi.cos());
+        let (c, s) = self.rotation;
+        let w = Vec3::new(c * x + s * z, cos_t, -s * x + c * z);
+        (w, sin_t)
+    }
+
+    fn texel(&self, uv: Vec2) -> (usize, usize) {
+        let i = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let j = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        (i, j)
+    }
+
+    /// Radiance arriving from direction `w` (towards the sky).
+    pub fn radiance(&self, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        let (i, j) = self.texel(self.uv(w));
+        let [c0, c1, c2, scale] = self.texels[j * self.width + i];
+        if scale == 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let smooth = wl.lambda.to_array().map(|l| {
+            let t = normalised_wavelength(l);
+            sigmoid((c0 * t + c1) * t + c2)
+        });
+        SampledSpectrum::from_array(smooth) * self.d65.sample(wl) * scale
+    }
+
+    /// Solid-angle density of `sample_li` for direction `w` (towards the sky).
+    pub fn pdf_li(&self, w: Vec3) -> f32 {
+        let uv = self.uv(w);
+        let (i, j) = self.texel(uv);
+        let sin_t = (1.0 - w.y * w.y).max(0.0).sqrt();
+        if sin_t == 0.0 {
+            return 0.0;
+        }
+        self.distribution.pdf_cell(i, j) / (2.0 * PI * PI * sin_t)
+    }
+
+    fn sample_direction(&self, u: (f32, f32)) -> Option<(Vec3, f32)> {
+        let (uv, pdf_uv) = self.distribution.sample(u);
+        let (w, sin_t) = self.direction(uv);
+        if pdf_uv == 0.0 || sin_t == 0.0 {
+            return None;
+        }
+        Some((w, pdf_uv / (2.0 * PI * PI * sin_t)))
+    }
+
+    pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
+        let (wi, pdf) = self.sample_direction(u)?;
+        let li = self.radiance(wi, wl);
+        if li == SampledSpectrum::ZERO {
+            return None;
+        }
+        Some(LightLiSample {
+            wi,
+            li,
+            pdf,
+            point: None,
+        })
+    }
+
+    /// A ray into the scene: a direction from the map's distribution, from
+    /// a uniform point of the disc of the scene's radius facing it.
+    pub fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        let (wi, pdf_dir) = self.sample_direction(u_dir)?;
+        let dir = -wi;
+        let p = self.scene.disc_point(dir, u_pos)?;
+        let le = self.radiance(wi, wl);
+        if le == SampledSpectrum::ZERO {
+            return None;
+        }
+        Some(LightLeSample {
+            point: LightPoint {
+                p,
+                p_err: Vec3::ZERO,
+                n: dir,
+                uv: Vec2::ZERO,
+            },
+            dir,
+            le,
+            pdf_pos: self.scene.disc_pdf(),
+            pdf_dir,
+        })
+    }
+
+    /// Densities of `sample_le` for a ray travelling along `dir`.
+    pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        (self.scene.disc_pdf(), self.pdf_li(-dir))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn map(width: usize, height: usize, f: impl Fn(usize, usize) -> Vec3) -> EnvironmentMap {
+        let rgb: Vec<Vec3> = (0..height)
+            .flat_map(|j| (0..width).map(move |i| (i, j)))
+            .map(|(i, j)| f(i, j))
+            .collect();
+        EnvironmentMap::new(width, height, &rgb, 1.0, 30.0)
+    }
+
+    #[test]
+    fn directions_and_map_coordinates_invert() {
+        let m = map(8, 4, |_, _| Vec3::ONE);
+        for uv in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.77, 0.5),
+            Vec2::new(0.5, 0.9),
+        ] {
+            let (w, _) = m.direction(uv);
+            assert!((w.length() - 1.0).abs() < 1e-5);
+            assert!((m.uv(w) - uv).length() < 1e-4, "{uv} → {w} → {}", m.uv(w));
+        }
+        // Unrotated, the image's centre looks along +z and its top is +y.
+        let m = EnvironmentMap::new(2, 2, &[Vec3::ONE; 4], 1.0, 0.0);
+        assert!((m.direction(Vec2::new(0.5, 0.5)).0 - Vec3::Z).length() < 1e-5);
+        assert!(m.direction(Vec2::new(0.3, 0.01)).0.y > 0.99);
+    }
+
+    #[test]
+    fn sampling_density_matches_pdf_and_integrates_to_one() {
+        let m = map(16, 8, |i, j| {
+            Vec3::new(1.0 + i as f32, 0.5 + (i * j) as f32 * 0.1, 0.2)
+        });
+        let mut s = crate::sampler::Sampler::new(5, 9);
+        for _ in 0..2000 {
+            let (w, pdf) = m.sample_direction(s.next_2d()).unwrap();
+            assert!(
+                (m.pdf_li(w) - pdf).abs() <= 1e-3 * pdf,
+                "{} vs {pdf}",
+                m.pdf_li(w)
+            );
+        }
+        // ∫ pdf dω over the sphere by a fine grid.
+        let (n_t, n_p) = (400, 800);
+        let mut total = 0.0f64;
+        for a in 0..n_t {
+            let theta = PI * (a as f32 + 0.5) / n_t as f32;
+            for b in 0..n_p {
+                let phi = 2.0 * PI * (b as f32 + 0.5) / n_p as f32;
+                let w = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                );
+                let d_omega = theta.sin() * (PI / n_t as f32) * (2.0 * PI / n_p as f32);
+                total += (m.pdf_li(w) * d_omega) as f64;
+            }
+        }
+        assert!((total - 1.0).abs() < 2e-3, "{total}");
+    }
+
+    #[test]
+    fn grey_texels_are_d65_of_their_luminance() {
+        let m = map(4, 2, |_, _| Vec3::splat(0.5));
+        // The spectrum's luminance, integrated over the CMFs, is 0.5.
+        let mut y = 0.0;
+        let n = 4000;
+        for k in 0..n {
+            let wl = SampledWavelengths::sample_visible((k as f32 + 0.5) / n as f32);
+            let l = m.radiance(Vec3::Z, &wl);
+            y += cie::sampled_to_xyz(l, &wl).y as f64 / n as f64;
+        }
+        assert!((y - 0.5).abs() < 5e-3, "{y}");
+    }
+}
