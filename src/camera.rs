@@ -1,6 +1,7 @@
-//! The pinhole camera: maps continuous raster positions to rays, and, for
-//! paths that start at lights, points of the scene back to raster positions
-//! with the camera's importance.
+//! The camera: a pinhole or a thin lens (depth of field) with a perspective
+//! projection, or an orthographic projection. Maps continuous raster
+//! positions to rays, and, for paths that start at lights, points of the
+//! scene back to raster positions with the camera's importance.
 
 use glam::{Vec2, Vec3};
 
@@ -11,16 +12,28 @@ use crate::geometry::Ray;
 pub struct CameraSample {
     /// Continuous raster position (pixels from the top-left corner).
     pub raster: Vec2,
-    /// Unit direction from the point towards the camera.
+    /// The point on the lens (the camera's position for a pinhole).
+    pub p_lens: Vec3,
+    /// Unit direction from the point towards `p_lens`.
     pub wi: Vec3,
-    /// Distance from the point to the camera.
+    /// Distance from the point to `p_lens`.
     pub dist: f32,
     /// Importance over its density, W_e / p: what the connection weighs.
-    /// W_e = 1 / (A cos⁴θ) with A the image's area on the plane at distance
-    /// 1, so that W_e integrates to 1 over the image (per projected solid
-    /// angle); p = dist² / cos θ converts the pinhole's point to the
-    /// solid angle at the point (pbrt-v4's PerspectiveCamera).
+    /// W_e = 1 / (A · A_lens · cos⁴θ) with A the image's area on the plane
+    /// at distance 1, so that W_e integrates to 1 over image and lens (per
+    /// projected solid angle and area); p = dist² / (A_lens cos θ) converts
+    /// the lens point's density to solid angle at the point (pbrt-v4's
+    /// PerspectiveCamera). The lens area cancels.
     pub weight: f32,
+}
+
+/// How the image plane maps to rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Rays from the eye: tan(vertical fov / 2).
+    Perspective { tan_half_fov: f32 },
+    /// Parallel rays: half the height of the view in scene units.
+    Orthographic { half_height: f32 },
 }
 
 #[derive(Clone, Debug)]
@@ -29,8 +42,11 @@ pub struct Camera {
     forward: Vec3,
     right: Vec3,
     up: Vec3,
-    /// tan(vertical fov / 2)
-    tan_half_fov: f32,
+    projection: Projection,
+    /// Radius of the thin lens (0: a pinhole) and the distance along the
+    /// view that is in focus (perspective only).
+    lens_radius: f32,
+    focus_distance: f32,
     width: u32,
     height: u32,
 }
@@ -73,28 +89,146 @@ impl Camera {
             forward,
             right,
             up,
-            tan_half_fov: (fov_y_degrees.to_radians() * 0.5).tan(),
+            projection: Projection::Perspective {
+                tan_half_fov: (fov_y_degrees.to_radians() * 0.5).tan(),
+            },
+            lens_radius: 0.0,
+            focus_distance: 1.0,
             width,
             height,
         }
     }
 
-    /// The ray through raster position (x, y), in pixels from the top-left corner.
-    pub fn generate_ray(&self, x: f32, y: f32) -> Ray {
-        let aspect = self.width as f32 / self.height as f32;
-        let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half_fov * aspect;
-        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half_fov;
-        Ray::new(
-            self.position,
-            (self.forward + sx * self.right + sy * self.up).normalize(),
+    /// The same camera with a thin lens of `radius` focused at `distance`
+    /// along the view (perspective only).
+    pub fn with_lens(mut self, radius: f32, distance: f32) -> Self {
+        self.lens_radius = radius;
+        self.focus_distance = distance;
+        self
+    }
+
+    /// The same view with an orthographic projection `height` scene units high.
+    pub fn orthographic(mut self, height: f32) -> Self {
+        self.projection = Projection::Orthographic {
+            half_height: 0.5 * height,
+        };
+        self.lens_radius = 0.0;
+        self
+    }
+
+    pub fn projection(&self) -> Projection {
+        self.projection
+    }
+
+    /// Whether rays start on a lens of some size (they need `u_lens`).
+    pub fn has_lens(&self) -> bool {
+        self.lens_radius > 0.0
+    }
+
+    /// Whether light paths can connect to the camera (not through the
+    /// Dirac directions of an orthographic view).
+    pub fn connectible(&self) -> bool {
+        matches!(self.projection, Projection::Perspective { .. })
+    }
+
+    fn aspect(&self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+
+    /// The film position (x, y) as offsets on the image plane: along
+    /// `right` and `up`, at distance 1 (perspective) or in scene units.
+    fn plane(&self, x: f32, y: f32) -> Vec2 {
+        let half = match self.projection {
+            Projection::Perspective { tan_half_fov } => tan_half_fov,
+            Projection::Orthographic { half_height } => half_height,
+        };
+        Vec2::new(
+            (2.0 * x / self.width as f32 - 1.0) * half * self.aspect(),
+            (1.0 - 2.0 * y / self.height as f32) * half,
         )
     }
 
-    /// Where the point `p` appears on the film, and what a connection from
-    /// it to the camera weighs; None when it is behind the camera or
-    /// outside the image.
-    pub fn sample_wi(&self, p: Vec3) -> Option<CameraSample> {
-        let to_camera = self.position - p;
+    /// Raster position of image-plane offsets (the inverse of `plane`).
+    fn raster(&self, s: Vec2) -> Vec2 {
+        let half = match self.projection {
+            Projection::Perspective { tan_half_fov } => tan_half_fov,
+            Projection::Orthographic { half_height } => half_height,
+        };
+        Vec2::new(
+            (s.x / (half * self.aspect()) + 1.0) * 0.5 * self.width as f32,
+            (1.0 - s.y / half) * 0.5 * self.height as f32,
+        )
+    }
+
+    fn in_image(&self, r: Vec2) -> bool {
+        r.x >= 0.0 && r.x < self.width as f32 && r.y >= 0.0 && r.y < self.height as f32
+    }
+
+    /// The point of the lens for a uniform `u_lens` in [0, 1)².
+    fn lens_point(&self, u_lens: (f32, f32)) -> Vec3 {
+        if !self.has_lens() {
+            return self.position;
+        }
+        let d = concentric_disc(u_lens) * self.lens_radius;
+        self.position + d.x * self.right + d.y * self.up
+    }
+
+    /// The ray through raster position (x, y), in pixels from the top-left
+    /// corner, with the centre of the lens.
+    pub fn generate_ray(&self, x: f32, y: f32) -> Ray {
+        self.ray(x, y, (0.5, 0.5))
+    }
+
+    /// The ray through raster position (x, y) from the lens point picked
+    /// by `u_lens` (ignored without a lens).
+    pub fn ray(&self, x: f32, y: f32, u_lens: (f32, f32)) -> Ray {
+        let s = self.plane(x, y);
+        match self.projection {
+            Projection::Orthographic { .. } => Ray::new(
+                self.position + s.x * self.right + s.y * self.up,
+                self.forward,
+            ),
+            Projection::Perspective { .. } => {
+                let d = self.forward + s.x * self.right + s.y * self.up;
+                if !self.has_lens() {
+                    return Ray::new(self.position, d.normalize());
+                }
+                // Every lens point sees the same point of the focus plane.
+                let focus = self.position + d * self.focus_distance;
+                let origin = self.lens_point(u_lens);
+                Ray::new(origin, (focus - origin).normalize())
+            }
+        }
+    }
+
+    /// Where a ray from `p_lens` along `dir` meets the image, in raster
+    /// coordinates (perspective only).
+    fn raster_of(&self, p_lens: Vec3, dir: Vec3) -> Option<Vec2> {
+        let cos = dir.dot(self.forward);
+        if !(cos > 0.0) {
+            return None;
+        }
+        // The point of the focus plane the ray goes through, seen from the
+        // lens centre (for a pinhole, the direction itself).
+        let q = if self.has_lens() {
+            p_lens + dir * (self.focus_distance / cos) - self.position
+        } else {
+            dir
+        };
+        let depth = q.dot(self.forward);
+        let r = self.raster(Vec2::new(q.dot(self.right), q.dot(self.up)) / depth);
+        self.in_image(r).then_some(r)
+    }
+
+    /// A connection from the point `p` to the camera through the lens point
+    /// picked by `u_lens`; None when it is behind the camera, outside the
+    /// image, or the camera is orthographic.
+    pub fn sample_wi(&self, p: Vec3, u_lens: (f32, f32)) -> Option<CameraSample> {
+        let Projection::Perspective { tan_half_fov } = self.projection else {
+            return None;
+        };
+        let p_lens = self.lens_point(u_lens);
+        let to_camera = p_lens - p;
         let dist2 = to_camera.length_squared();
         if !(dist2 > 0.0) {
             return None;
@@ -102,50 +236,46 @@ impl Camera {
         let dist = dist2.sqrt();
         let wi = to_camera / dist;
         let dir = -wi;
+        let raster = self.raster_of(p_lens, dir)?;
         let cos = dir.dot(self.forward);
-        if !(cos > 0.0) {
-            return None;
-        }
-        let aspect = self.width as f32 / self.height as f32;
-        let (sx, sy) = (dir.dot(self.right) / cos, dir.dot(self.up) / cos);
-        let x = (sx / (self.tan_half_fov * aspect) + 1.0) * 0.5 * self.width as f32;
-        let y = (1.0 - sy / self.tan_half_fov) * 0.5 * self.height as f32;
-        if !(x >= 0.0 && x < self.width as f32 && y >= 0.0 && y < self.height as f32) {
-            return None;
-        }
-        let area = 4.0 * self.tan_half_fov * self.tan_half_fov * aspect;
+        let area = 4.0 * tan_half_fov * tan_half_fov * self.aspect();
         Some(CameraSample {
-            raster: Vec2::new(x, y),
+            raster,
+            p_lens,
             wi,
             dist,
             weight: 1.0 / (area * cos * cos * cos * dist2),
         })
     }
 
-    /// Solid-angle density with which `generate_ray` (at a uniform raster
-    /// position) sends a ray along `dir` (unit): 1 / (A cos³θ), zero
-    /// outside the image.
-    pub fn pdf_we(&self, dir: Vec3) -> f32 {
+    /// Solid-angle density with which `ray` (at a uniform raster position)
+    /// leaves `p_lens` along `dir` (unit): 1 / (A cos³θ), zero outside the
+    /// image and for an orthographic camera (a Dirac direction).
+    pub fn pdf_we(&self, p_lens: Vec3, dir: Vec3) -> f32 {
+        let Projection::Perspective { tan_half_fov } = self.projection else {
+            return 0.0;
+        };
+        if self.raster_of(p_lens, dir).is_none() {
+            return 0.0;
+        }
         let cos = dir.dot(self.forward);
-        if !(cos > 0.0) {
-            return 0.0;
-        }
-        let aspect = self.width as f32 / self.height as f32;
-        let (sx, sy) = (dir.dot(self.right) / cos, dir.dot(self.up) / cos);
-        if sx.abs() > self.tan_half_fov * aspect || sy.abs() > self.tan_half_fov {
-            return 0.0;
-        }
-        let area = 4.0 * self.tan_half_fov * self.tan_half_fov * aspect;
+        let area = 4.0 * tan_half_fov * tan_half_fov * self.aspect();
         1.0 / (area * cos * cos * cos)
     }
 
     /// The width of a pixel's footprint on a plane facing the camera at
     /// `distance`.
     pub fn pixel_footprint(&self, distance: f32) -> f32 {
-        2.0 * distance * self.tan_half_fov / self.height as f32
+        match self.projection {
+            Projection::Perspective { tan_half_fov } => {
+                2.0 * distance * tan_half_fov / self.height as f32
+            }
+            Projection::Orthographic { half_height } => 2.0 * half_height / self.height as f32,
+        }
     }
 
-    /// The same camera for another image size (the vertical field of view is kept).
+    /// The same camera for another image size (the vertical field of view,
+    /// or height, is kept).
     pub fn with_resolution(mut self, width: u32, height: u32) -> Self {
         self.width = width;
         self.height = height;
@@ -155,6 +285,22 @@ impl Camera {
     pub fn resolution(&self) -> (u32, u32) {
         (self.width, self.height)
     }
+}
+
+/// Shirley–Chiu's concentric map of [0, 1)² onto the unit disc (uniform,
+/// with little distortion).
+fn concentric_disc(u: (f32, f32)) -> Vec2 {
+    let (a, b) = (2.0 * u.0 - 1.0, 2.0 * u.1 - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let q = std::f32::consts::FRAC_PI_4;
+    let (r, theta) = if a.abs() > b.abs() {
+        (a, q * (b / a))
+    } else {
+        (b, 2.0 * q - q * (a / b))
+    };
+    Vec2::new(r * theta.cos(), r * theta.sin())
 }
 
 /// Vertical field of view (degrees) of a lens of `focal_length` over a film
@@ -192,7 +338,7 @@ mod tests {
         for (x, y) in [(0.5, 0.5), (160.0, 100.0), (319.2, 12.7), (3.3, 199.9)] {
             let r = c.generate_ray(x, y);
             let p = r.origin + r.dir * 7.5;
-            let s = c.sample_wi(p).expect("in view");
+            let s = c.sample_wi(p, (0.5, 0.5)).expect("in view");
             assert!(
                 (s.raster - Vec2::new(x, y)).length() < 1e-2,
                 "{x},{y}: {}",
@@ -200,7 +346,11 @@ mod tests {
             );
             assert!((s.wi + r.dir).length() < 1e-5 && (s.dist - 7.5).abs() < 1e-4);
         }
-        assert!(c.sample_wi(Vec3::new(1.0, 2.0, -10.0)).is_none(), "behind");
+        assert!(
+            c.sample_wi(Vec3::new(1.0, 2.0, -10.0), (0.5, 0.5))
+                .is_none(),
+            "behind"
+        );
     }
 
     #[test]
@@ -221,13 +371,58 @@ mod tests {
                     -half_h + (j as f32 + 0.5) / n as f32 * 2.0 * half_h,
                     d,
                 );
-                let s = c.sample_wi(p).expect("in view");
+                let s = c.sample_wi(p, (0.5, 0.5)).expect("in view");
                 let cos_plane = s.wi.z.abs();
                 sum +=
                     (s.weight * cos_plane) as f64 * (4.0 * half_w * half_h) as f64 / (n * n) as f64;
             }
         }
         assert!((sum - 1.0).abs() < 1e-3, "{sum}");
+    }
+
+    #[test]
+    fn lens_rays_meet_on_the_focus_plane_and_map_back_to_their_raster() {
+        let c = Camera::look_at(Vec3::new(0.5, 1.0, -4.0), Vec3::ZERO, Vec3::Y, 40.0, 80, 60)
+            .with_lens(0.3, 3.0);
+        let forward = (Vec3::ZERO - Vec3::new(0.5, 1.0, -4.0)).normalize();
+        for (x, y) in [(40.0, 30.0), (3.5, 50.2), (77.0, 4.0)] {
+            let centre = c.generate_ray(x, y);
+            let t = 3.0 / centre.dir.dot(forward);
+            let focus = centre.origin + centre.dir * t;
+            for u in [(0.1, 0.9), (0.7, 0.2), (0.95, 0.5)] {
+                let r = c.ray(x, y, u);
+                assert!((r.origin - c.position).length() <= 0.3 + 1e-5);
+                let t = (focus - r.origin).dot(r.dir);
+                assert!(
+                    (r.origin + r.dir * t - focus).length() < 1e-4,
+                    "misses the focus point"
+                );
+                // A point on this ray maps back to (x, y) through the same lens point.
+                let p = r.origin + r.dir * 7.0;
+                let s = c.sample_wi(p, u).expect("in view");
+                assert!((s.raster - Vec2::new(x, y)).length() < 1e-2, "{}", s.raster);
+                assert!((s.p_lens - r.origin).length() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn orthographic_rays_are_parallel_and_sized_in_scene_units() {
+        let c = Camera::look_at(
+            Vec3::new(0.0, 0.0, -5.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            40.0,
+            100,
+            50,
+        )
+        .orthographic(2.0);
+        let a = c.generate_ray(0.0, 25.0);
+        let b = c.generate_ray(100.0, 25.0);
+        assert_eq!(a.dir, b.dir);
+        // 2 units high, 4 wide.
+        assert!(((a.origin - b.origin).length() - 4.0).abs() < 1e-5);
+        assert!(c.sample_wi(Vec3::ZERO, (0.5, 0.5)).is_none() && !c.connectible());
     }
 
     #[test]

@@ -34,7 +34,7 @@ use glam::{Vec2, Vec3};
 use super::interface::{bsdf_at, scatter, trace, Next};
 use super::ior_stack::IorStack;
 use super::light_path;
-use super::{russian_roulette, PathCounters, PixelSample};
+use super::{camera_ray, lens_sample, russian_roulette, PathCounters, PixelSample};
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -178,7 +178,7 @@ impl Vertex {
     fn pdf(&self, scene: &Scene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
         let pdf_dir = match self.kind {
             Kind::Light => return self.pdf_light(scene, next),
-            Kind::Camera => scene.camera.pdf_we(self.dir_to(next)),
+            Kind::Camera => scene.camera.pdf_we(self.p, self.dir_to(next)),
             Kind::Surface => match (prev, &self.bsdf) {
                 (Some(prev), Some(b)) => b.pdf(
                     self.dir_to(prev),
@@ -285,7 +285,7 @@ impl Bdpt {
             let (camera_path, light_path) = &mut *guard;
             camera_path.clear();
             light_path.clear();
-            let ray = scene.camera.generate_ray(x as f32 + dx, y as f32 + dy);
+            let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
             self.camera_subpath(
                 scene,
                 ray,
@@ -357,7 +357,7 @@ impl Bdpt {
         let camera = Vertex::new(Kind::Camera, ray.origin, SampledSpectrum::ONE);
         path.push(camera);
         // A pinhole with a box filter: W_e / p = 1 for every camera ray.
-        let pdf_dir = scene.camera.pdf_we(ray.dir);
+        let pdf_dir = scene.camera.pdf_we(ray.origin, ray.dir);
         let walk = Walk {
             mode: TransportMode::Radiance,
             max_vertices: self.max_depth as usize + 2,
@@ -593,14 +593,10 @@ fn connect(
         if qs.kind != Kind::Surface || !qs.connectible() {
             return none;
         }
-        let Some(cs) = scene.camera.sample_wi(qs.p) else {
+        let Some(cs) = scene.camera.sample_wi(qs.p, lens_sample(scene, sampler)) else {
             return none;
         };
-        let camera = Vertex::new(
-            Kind::Camera,
-            scene.camera.position,
-            SampledSpectrum::splat(cs.weight),
-        );
+        let camera = Vertex::new(Kind::Camera, cs.p_lens, SampledSpectrum::splat(cs.weight));
         let l =
             qs.beta * qs.f(&camera, TransportMode::Importance) * camera.beta * qs.cos_to(&camera);
         if l == SampledSpectrum::ZERO {
@@ -608,7 +604,7 @@ fn connect(
         }
         let origin = offset_ray_origin(qs.p, qs.p_err, qs.ng, cs.wi);
         counters.rays += 1;
-        if scene.occluded(&Ray::towards(origin, scene.camera.position)) {
+        if scene.occluded(&Ray::towards(origin, cs.p_lens)) {
             return none;
         }
         sampled = Some(camera);

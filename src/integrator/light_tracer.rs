@@ -15,7 +15,7 @@
 
 use super::interface::{bsdf_at, scatter, trace, Next};
 use super::light_path;
-use super::{russian_roulette, PathCounters, PixelSample};
+use super::{lens_sample, russian_roulette, PathCounters, PixelSample};
 use crate::camera::CameraSample;
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
@@ -70,7 +70,8 @@ impl LightTracer {
         // The light itself, seen by the camera: only a surface can be (a
         // point, a direction or the sky has no `l`).
         let seen = start.n != Vec3::ZERO;
-        if let Some(cs) = scene.camera.sample_wi(lp.p).filter(|_| seen) {
+        let u_lens = lens_sample(scene, sampler);
+        if let Some(cs) = scene.camera.sample_wi(lp.p, u_lens).filter(|_| seen) {
             let le = light.l(lp.uv, cs.wi, &wl);
             let cos = lp.n.dot(cs.wi).abs();
             if le != SampledSpectrum::ZERO
@@ -95,7 +96,8 @@ impl LightTracer {
 
             // Connect to the camera (Dirac lobes cannot turn towards it).
             if !bsdf.is_specular() {
-                if let Some(cs) = scene.camera.sample_wi(hit.p) {
+                let u_lens = lens_sample(scene, sampler);
+                if let Some(cs) = scene.camera.sample_wi(hit.p, u_lens) {
                     let f = bsdf.f(wo, cs.wi, TransportMode::Importance);
                     if f != SampledSpectrum::ZERO
                         && self.visible(scene, hit.p, hit.p_err, hit.ng, &cs, counters)
@@ -133,7 +135,7 @@ impl LightTracer {
         counters: &mut PathCounters,
     ) -> bool {
         let origin = offset_ray_origin(p, p_err, n, cs.wi);
-        let shadow = Ray::towards(origin, scene.camera.position);
+        let shadow = Ray::towards(origin, cs.p_lens);
         counters.rays += 1;
         !scene.occluded(&shadow)
     }

@@ -302,7 +302,7 @@ impl Integrator {
             Integrator::Path(p) => {
                 let [dx, dy, u_lambda, _] = sampler.next_4d();
                 let mut wl = SampledWavelengths::sample_visible(u_lambda);
-                let ray = scene.camera.generate_ray(x as f32 + dx, y as f32 + dy);
+                let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
                 let l = p.radiance(scene, ray, &mut wl, sampler, counters);
                 PixelSample { l, wl }
             }
@@ -320,6 +320,27 @@ impl Integrator {
                 p.sample(scene, x, y, sampler, map, counters)
             }
         }
+    }
+}
+
+/// The camera ray through raster position (x, y): a thin lens takes a 4D
+/// point of its own (drawn only then, so pinhole renders keep their
+/// numbers).
+pub fn camera_ray(scene: &Scene, x: f32, y: f32, sampler: &mut Sampler) -> crate::geometry::Ray {
+    if scene.camera.has_lens() {
+        let [l0, l1, _, _] = sampler.next_4d();
+        scene.camera.ray(x, y, (l0, l1))
+    } else {
+        scene.camera.generate_ray(x, y)
+    }
+}
+
+/// A lens point for a connection to the camera (the centre for a pinhole).
+pub fn lens_sample(scene: &Scene, sampler: &mut Sampler) -> (f32, f32) {
+    if scene.camera.has_lens() {
+        sampler.next_2d()
+    } else {
+        (0.5, 0.5)
     }
 }
 

@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use super::interface::{bsdf_at, scatter, trace, Next};
 use super::light_path;
 use super::path::{PathTracer, Stop};
-use super::{russian_roulette, PathCounters, PixelSample, Strategy};
+use super::{camera_ray, russian_roulette, PathCounters, PixelSample, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
@@ -362,7 +362,7 @@ impl Sppm {
     ) -> PixelSample {
         let [dx, dy, u_lambda, _] = sampler.next_4d();
         let mut wl = SampledWavelengths::sample_visible(u_lambda);
-        let ray = scene.camera.generate_ray(x as f32 + dx, y as f32 + dy);
+        let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
         let tracer = PathTracer {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,

@@ -101,6 +101,25 @@ pub struct CameraSpec {
     /// Height of the film (sensor) in mm, for `focal_length`.
     #[serde(default = "default_film_height")]
     pub film_height: f32,
+    /// "perspective" (default) or "orthographic".
+    #[serde(default, rename = "type")]
+    pub kind: CameraKind,
+    /// Orthographic: the width of the view in scene units.
+    pub width: Option<f32>,
+    /// Thin lens: its radius in scene units.
+    pub aperture_radius: Option<f32>,
+    /// Thin lens: the f-number, with `focal_length` (scene units taken as metres).
+    pub f_number: Option<f32>,
+    /// Thin lens: the distance in focus, along the view (default: to `look_at`).
+    pub focus_distance: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum CameraKind {
+    #[default]
+    Perspective,
+    Orthographic,
 }
 
 fn default_up() -> [f32; 3] {

@@ -7,7 +7,7 @@ use glam::Vec3;
 use super::{list, Loader, MAX_COORDINATE};
 use crate::camera::{fov_from_focal_length, Camera};
 use crate::film::FilmSettings;
-use crate::scene::format::{SceneFile, ShapeKind};
+use crate::scene::format::{CameraKind, SceneFile, ShapeKind};
 use crate::scene::SceneError;
 
 impl Loader {
@@ -56,7 +56,82 @@ impl Loader {
         if forward.normalize().cross(up).length_squared() < 1e-12 {
             return Err(self.error("`camera.up` must not be parallel to the viewing direction"));
         }
-        Ok(Camera::look_at(pos, at, up, fov, s.width, s.height))
+        let camera = Camera::look_at(pos, at, up, fov, s.width, s.height);
+        let lens = match (c.aperture_radius, c.f_number) {
+            (Some(_), Some(_)) => {
+                return Err(
+                    self.error("`camera`: give either `aperture_radius` or `f_number`, not both")
+                )
+            }
+            (Some(r), None) => Some(("aperture_radius", r)),
+            (None, Some(n)) => {
+                let Some(f) = c.focal_length else {
+                    return Err(self.error(
+                        "`camera.f_number` needs `camera.focal_length` (the aperture is focal length / f-number)",
+                    ));
+                };
+                if !(n > 0.0) {
+                    return Err(
+                        self.error(format!("`camera.f_number` must be positive, found {n}"))
+                    );
+                }
+                // Millimetres to scene units taken as metres.
+                Some(("f_number", 0.5 * f / n / 1000.0))
+            }
+            (None, None) => None,
+        };
+        if lens.is_none() && c.focus_distance.is_some() {
+            return Err(
+                self.error("`camera.focus_distance` needs a lens: `aperture_radius` or `f_number`")
+            );
+        }
+        match c.kind {
+            CameraKind::Perspective => {
+                if c.width.is_some() {
+                    return Err(self.error(
+                        "`camera.width` applies to an orthographic camera (`type = \"orthographic\"`)",
+                    ));
+                }
+                let Some((key, radius)) = lens else {
+                    return Ok(camera);
+                };
+                if !(radius >= 0.0 && radius.is_finite()) {
+                    return Err(self.error(format!(
+                        "`camera.{key}` gives a lens radius of {radius}: it must be finite and not negative"
+                    )));
+                }
+                let focus = c.focus_distance.unwrap_or(forward.length());
+                if !(focus > 0.0 && focus.is_finite()) {
+                    return Err(self.error(format!(
+                        "`camera.focus_distance` must be positive, found {focus}"
+                    )));
+                }
+                Ok(camera.with_lens(radius, focus))
+            }
+            CameraKind::Orthographic => {
+                if lens.is_some() {
+                    return Err(self.error(
+                        "an orthographic camera has no lens: drop `aperture_radius`/`f_number`",
+                    ));
+                }
+                if c.fov.is_some() || c.focal_length.is_some() {
+                    return Err(self.error(
+                        "an orthographic camera takes `width`, not `fov` or `focal_length`",
+                    ));
+                }
+                let Some(width) = c.width else {
+                    return Err(self.error(
+                        "an orthographic camera needs `camera.width` (the view's width in scene units)",
+                    ));
+                };
+                if !(width > 0.0 && width.is_finite()) {
+                    return Err(
+                        self.error(format!("`camera.width` must be positive, found {width}"))
+                    );
+                }
+                Ok(camera.orthographic(width * s.height as f32 / s.width as f32))
+            }
+        }
     }
 
     /// The camera of a glTF file: the one called `camera.name`, or the first.
@@ -71,9 +146,14 @@ impl Loader {
             || c.look_at.is_some()
             || c.fov.is_some()
             || c.focal_length.is_some()
+            || c.width.is_some()
+            || c.kind != CameraKind::Perspective
+            || c.aperture_radius.is_some()
+            || c.f_number.is_some()
+            || c.focus_distance.is_some()
         {
             return Err(self.error(
-                "`camera.from_file` takes the whole camera from the file: drop position, look_at, fov and focal_length",
+                "`camera.from_file` takes the whole camera from the file: drop position, look_at, fov, focal_length, type, width and the lens keys",
             ));
         }
         let path = self.base.join(rel);

@@ -200,6 +200,12 @@ impl Loader {
         let film = self.film(&file)?;
         let integrator = self.integrator(&mut file)?;
         let camera = self.camera(&file, &film)?;
+        if integrator.splats() && !camera.connectible() {
+            return Err(self.error(format!(
+                "the {} integrator connects light paths to the camera, which an orthographic camera's parallel rays cannot receive: use `path` or `sppm`",
+                integrator.name()
+            )));
+        }
 
         let mut material_index = BTreeMap::new();
         let mut materials = Vec::new();
