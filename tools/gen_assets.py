@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""Writes the demo assets of scenes/assets/: a textured OBJ/MTL room and a
+"""Writes the demo assets of scenes/assets/: a textured OBJ/MTL room, a
 glTF binary (.glb) with a textured floor, a transmissive dispersive glass
-sphere, a gold sphere, an emissive panel and a camera. Standard library
-only; the output is deterministic, so re-running it changes nothing.
+sphere, a gold sphere, an emissive panel and a camera, and an HDR studio
+environment map (studio.hdr: softboxes in a dim room, made here, so free
+of any licence). Standard library only; the output is deterministic, so
+re-running it changes nothing.
 
     python3 tools/gen_assets.py
     python3 tools/gen_assets.py --terrain DIR   # 1M-triangle OBJ + GLB + scene, for load timing
@@ -34,6 +36,55 @@ def png(width, height, pixel):
         + chunk(b"IDAT", zlib.compress(rows, 9))
         + chunk(b"IEND", b"")
     )
+
+
+def rgbe(rgb):
+    """A linear RGB radiance as Radiance RGBE bytes."""
+    m = max(rgb)
+    if m < 1e-32:
+        return bytes((0, 0, 0, 0))
+    e = math.frexp(m)[1]
+    f = 256.0 / 2.0**e
+    return bytes(min(255, int(c * f)) for c in rgb) + bytes((e + 128,))
+
+
+def studio(u, v):
+    """Radiance of the studio map at map coordinates (u, v) in [0, 1]²: the
+    map's convention (README, [environment]): azimuth 0 (u = 0.5) looks
+    along +z, u grows towards +x, v = 0 is the zenith."""
+    azimuth = (u - 0.5) * 360.0
+    elevation = 90.0 - v * 180.0
+    if elevation < 0.0:
+        # The room's floor, dark and warm.
+        return (0.05, 0.045, 0.04)
+    # Walls: brighter towards the horizon.
+    base = 0.12 + 0.18 * (1.0 - elevation / 90.0)
+    rgb = [base * 1.0, base * 0.97, base * 0.92]
+
+    def box(az, el, half_az, half_el):
+        d = (azimuth - az + 180.0) % 360.0 - 180.0
+        return abs(d) < half_az and abs(elevation - el) < half_el
+
+    if box(35.0, 35.0, 14.0, 10.0):  # warm key softbox, front right
+        rgb = [14.0, 12.5, 10.5]
+    elif box(-60.0, 22.0, 11.0, 14.0):  # cool fill, left
+        rgb = [2.0, 2.6, 3.4]
+    elif box(180.0, 30.0, 4.0, 20.0):  # rim strip behind
+        rgb = [7.0, 7.0, 7.0]
+    elif elevation > 75.0:  # a ceiling light
+        rgb = [3.0, 3.0, 3.0]
+    return tuple(rgb)
+
+
+def hdr(width, height, radiance):
+    """An uncompressed Radiance HDR (RGBE) image; radiance(u, v) → RGB."""
+    header = f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {height} +X {width}\n".encode()
+    body = b"".join(
+        rgbe(radiance((x + 0.5) / width, (y + 0.5) / height))
+        for y in range(height)
+        for x in range(width)
+    )
+    return header + body
 
 
 def checker(x, y, n=8, a=(230, 230, 225), b=(40, 60, 90)):
@@ -333,4 +384,5 @@ if __name__ == "__main__":
         OUT.mkdir(parents=True, exist_ok=True)
         write_glb()
         write_obj()
+        (OUT / "studio.hdr").write_bytes(hdr(512, 256, studio))
         print(f"wrote {OUT}")
