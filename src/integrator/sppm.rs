@@ -198,9 +198,10 @@ impl HashGrid {
     }
 }
 
-/// Photons traced by one task (a fixed batch, so the map is the same for
-/// any thread count).
-const PHOTON_BATCH: u32 = 4096;
+/// Photons traced by one task: small, so that an iteration of a few tens
+/// of thousands of photons still keeps 16 threads busy. The map does not
+/// depend on it (batches are concatenated in photon order).
+const PHOTON_BATCH: u32 = 512;
 /// Photons' random streams use this row of the sampler's pixel grid,
 /// which no image reaches, so they never share a camera sample's numbers.
 const PHOTON_ROW: u32 = u32::MAX;
