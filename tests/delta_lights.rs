@@ -9,37 +9,13 @@ mod common;
 use std::path::Path;
 
 use glam::{DVec3, Vec3};
-use prism::geometry::Ray;
-use prism::sampler::Sampler;
 use prism::scene::Scene;
-use prism::spectrum::{cie, SampledWavelengths};
+use prism::spectrum::SampledWavelengths;
 
 const FLOOR: &str = "[camera]\nposition = [0, 5, -5]\nlook_at = [0, 0, 0]\n\
     [integrator]\nmax_depth = 1\n\
     [materials.floor]\ntype = \"diffuse\"\nreflectance = 0.5\n\
     [[shape]]\ntype = \"quad\"\nvertices = [[-20, 0, -20], [-20, 0, 20], [20, 0, 20], [20, 0, -20]]\nmaterial = \"floor\"\n";
-
-/// Mean luminance of the floor at `target`, seen from above, and its
-/// standard error (the only noise is the wavelengths' Monte Carlo).
-fn floor_luminance(s: &Scene, target: Vec3) -> (f64, f64) {
-    let origin = target + Vec3::new(0.3, 2.0, -0.4);
-    let n = 4000u64;
-    let (mut sum, mut sq) = (0.0, 0.0);
-    for k in 0..n {
-        let mut sampler = Sampler::for_sample(17, 0, 0, k);
-        let mut wl = SampledWavelengths::sample_visible(sampler.next_f32());
-        let ray = Ray::new(origin, (target - origin).normalize());
-        let l = common::path_radiance(s, ray, &mut wl, &mut sampler);
-        let y = cie::sampled_to_xyz(l, &wl).y as f64;
-        sum += y;
-        sq += y * y;
-    }
-    let mean = sum / n as f64;
-    (
-        mean,
-        ((sq / n as f64 - mean * mean) / (n - 1) as f64).sqrt(),
-    )
-}
 
 fn assert_close(got: (f64, f64), expected: f64, what: &str) {
     // 5 standard errors of the wavelength noise, plus 1e-4 relative for
@@ -71,7 +47,7 @@ fn point_light_irradiance_follows_the_inverse_square_law() {
         let d = light - t;
         let expected = 0.5 / std::f64::consts::PI * 10.0 * (d.y / d.length()) / d.length_squared();
         assert_close(
-            floor_luminance(&s, t.as_vec3()),
+            common::floor_luminance(&s, t.as_vec3()),
             expected,
             &format!("point at {t}"),
         );
@@ -92,13 +68,13 @@ fn spot_light_is_a_point_light_inside_its_cone_and_dark_outside() {
     };
     for x in [0.0, 0.4, 0.7] {
         assert_close(
-            floor_luminance(&s, Vec3::new(x as f32, 0.0, 0.0)),
+            common::floor_luminance(&s, Vec3::new(x as f32, 0.0, 0.0)),
             point(x),
             "inside",
         );
     }
     for x in [1.2, 3.0] {
-        let (m, _) = floor_luminance(&s, Vec3::new(x as f32, 0.0, 0.0));
+        let (m, _) = common::floor_luminance(&s, Vec3::new(x as f32, 0.0, 0.0));
         assert_eq!(m, 0.0, "outside the cone at x = {x}");
     }
     // In the falloff band: smoothstep of the cosine.
@@ -108,7 +84,7 @@ fn spot_light_is_a_point_light_inside_its_cone_and_dark_outside() {
     let t = (cos - lo) / (hi - lo);
     let expected = point(x) * t * t * (3.0 - 2.0 * t);
     assert_close(
-        floor_luminance(&s, Vec3::new(x as f32, 0.0, 0.0)),
+        common::floor_luminance(&s, Vec3::new(x as f32, 0.0, 0.0)),
         expected,
         "falloff",
     );
@@ -121,7 +97,7 @@ fn directional_light_gives_irradiance_times_cosine() {
     let expected = 0.5 / std::f64::consts::PI * 3.0 * cos;
     for target in [[0.0, 0.0, 0.0], [4.0, 0.0, -3.0]] {
         assert_close(
-            floor_luminance(&s, Vec3::from(target)),
+            common::floor_luminance(&s, Vec3::from(target)),
             expected,
             "directional",
         );

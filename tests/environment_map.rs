@@ -11,10 +11,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};
 use prism::film::output::write_rgb_exr;
-use prism::geometry::Ray;
-use prism::sampler::Sampler;
 use prism::scene::Scene;
-use prism::spectrum::{cie, SampledWavelengths};
 
 const W: u32 = 64;
 const H: u32 = 32;
@@ -54,29 +51,6 @@ fn floor_scene(environment: &str) -> Scene {
     ))
 }
 
-/// Mean luminance of the floor at the origin seen from above, and its
-/// standard error.
-fn floor_luminance(s: &Scene) -> (f64, f64) {
-    let target = Vec3::ZERO;
-    let origin = target + Vec3::new(0.3, 2.0, -0.4);
-    let n = 4000u64;
-    let (mut sum, mut sq) = (0.0, 0.0);
-    for k in 0..n {
-        let mut sampler = Sampler::for_sample(17, 0, 0, k);
-        let mut wl = SampledWavelengths::sample_visible(sampler.next_f32());
-        let ray = Ray::new(origin, (target - origin).normalize());
-        let l = common::path_radiance(s, ray, &mut wl, &mut sampler);
-        let y = cie::sampled_to_xyz(l, &wl).y as f64;
-        sum += y;
-        sq += y * y;
-    }
-    let mean = sum / n as f64;
-    (
-        mean,
-        ((sq / n as f64 - mean * mean) / (n - 1) as f64).sqrt(),
-    )
-}
-
 /// The texel's irradiance on a surface facing +y: L ∫ cos θ dω over the
 /// texel = L Δφ (sin²θ₁ − sin²θ₀) / 2.
 fn texel_irradiance(j: u32, l: f64) -> f64 {
@@ -107,7 +81,7 @@ fn a_map_with_one_bright_texel_lights_like_that_texel_and_like_a_directional_lig
     ));
     let e = texel_irradiance(j, l as f64);
     let expected = 0.5 / PI * e;
-    let (m, se) = floor_luminance(&s);
+    let (m, se) = common::floor_luminance(&s, Vec3::ZERO);
     assert!(
         (m - expected).abs() < 5.0 * se + 1e-4 * expected,
         "map: {m} ± {se}, expected {expected}"
@@ -121,7 +95,7 @@ fn a_map_with_one_bright_texel_lights_like_that_texel_and_like_a_directional_lig
         "[[light]]\ntype = \"directional\"\ndirection = [{}, {}, {}]\nirradiance = {normal_irradiance}\n",
         -d.x, -d.y, -d.z
     ));
-    let (md, sed) = floor_luminance(&s);
+    let (md, sed) = common::floor_luminance(&s, Vec3::ZERO);
     assert!(
         (md - m).abs() < 5.0 * (se + sed) + 2e-3 * m,
         "directional {md} ± {sed} against the map's {m} ± {se}"

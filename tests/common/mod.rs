@@ -65,6 +65,28 @@ pub fn path_radiance(
     }
 }
 
+/// Mean luminance of a floor (or any surface) at `target`, seen from a
+/// little above it by the scene's path tracer, and its standard error.
+pub fn floor_luminance(s: &Scene, target: glam::Vec3) -> (f64, f64) {
+    let origin = target + glam::Vec3::new(0.3, 2.0, -0.4);
+    let n = 4000u64;
+    let (mut sum, mut sq) = (0.0, 0.0);
+    for k in 0..n {
+        let mut sampler = Sampler::for_sample(17, 0, 0, k);
+        let mut wl = SampledWavelengths::sample_visible(sampler.next_f32());
+        let ray = Ray::new(origin, (target - origin).normalize());
+        let l = path_radiance(s, ray, &mut wl, &mut sampler);
+        let y = prism::spectrum::cie::sampled_to_xyz(l, &wl).y as f64;
+        sum += y;
+        sq += y * y;
+    }
+    let mean = sum / n as f64;
+    (
+        mean,
+        ((sq / n as f64 - mean * mean) / (n - 1) as f64).sqrt(),
+    )
+}
+
 /// Mean luminance over a pixel rectangle and the variance of that mean.
 pub fn region_mean(film: &Film, x0: u32, y0: u32, x1: u32, y1: u32) -> (f64, f64) {
     let (mut sum, mut var) = (0.0, 0.0);
