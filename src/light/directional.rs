@@ -4,9 +4,9 @@
 //! estimation and light paths find it. Light paths start on a disc that
 //! covers the scene, so it needs the scene's bounds (`with_scene`).
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
-use super::{LightLeSample, LightLiSample, LightPoint, SceneSphere};
+use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 #[derive(Clone, Debug)]
@@ -55,23 +55,8 @@ impl DirectionalLight {
     /// A ray towards the scene from a uniform point of a disc of the
     /// scene's radius, outside the scene, facing along the light.
     pub fn sample_le(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLeSample> {
-        let p = self.scene.disc_point(self.direction, u)?;
         let le = self.irradiance.sample(wl);
-        if le == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLeSample {
-            point: LightPoint {
-                p,
-                p_err: Vec3::ZERO,
-                n: self.direction,
-                uv: Vec2::ZERO,
-            },
-            dir: self.direction,
-            le,
-            pdf_pos: self.scene.disc_pdf(),
-            pdf_dir: 1.0,
-        })
+        self.scene.ray_from_infinity(self.direction, u, le, 1.0)
     }
 
     /// (per-area, per-solid-angle): the direction is a delta.

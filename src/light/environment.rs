@@ -5,10 +5,8 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
-
 use super::point::sphere_direction;
-use super::{LightLeSample, LightLiSample, LightPoint, SceneSphere};
+use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 #[derive(Clone, Debug)]
@@ -67,24 +65,9 @@ impl UniformEnvironment {
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
         let dir = sphere_direction(1.0 - 2.0 * u_dir.0, u_dir.1);
-        let p = self.scene.disc_point(dir, u_pos)?;
-        let le = self.radiance.sample(wl);
-        if le == SampledSpectrum::ZERO {
-            return None;
-        }
-        let (pdf_pos, pdf_dir) = self.pdf_le();
-        Some(LightLeSample {
-            point: LightPoint {
-                p,
-                p_err: Vec3::ZERO,
-                n: dir,
-                uv: Vec2::ZERO,
-            },
-            dir,
-            le,
-            pdf_pos,
-            pdf_dir,
-        })
+        let (_, pdf_dir) = self.pdf_le();
+        self.scene
+            .ray_from_infinity(dir, u_pos, self.radiance.sample(wl), pdf_dir)
     }
 
     pub fn pdf_le(&self) -> (f32, f32) {

@@ -15,7 +15,7 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::{LightLeSample, LightLiSample, LightPoint, SceneSphere};
+use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::spectrum::cie;
 use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
@@ -257,24 +257,8 @@ impl EnvironmentMap {
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
         let (wi, pdf_dir) = self.sample_direction(u_dir)?;
-        let dir = -wi;
-        let p = self.scene.disc_point(dir, u_pos)?;
-        let le = self.radiance(wi, wl);
-        if le == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLeSample {
-            point: LightPoint {
-                p,
-                p_err: Vec3::ZERO,
-                n: dir,
-                uv: Vec2::ZERO,
-            },
-            dir,
-            le,
-            pdf_pos: self.scene.disc_pdf(),
-            pdf_dir,
-        })
+        self.scene
+            .ray_from_infinity(-wi, u_pos, self.radiance(wi, wl), pdf_dir)
     }
 
     /// Densities of `sample_le` for a ray travelling along `dir`.

@@ -99,6 +99,35 @@ impl SceneSphere {
     }
 }
 
+impl SceneSphere {
+    /// A ray from infinity along `dir` (unit) carrying `le`: from a uniform
+    /// point of the disc facing it; None for an empty scene or no light.
+    pub fn ray_from_infinity(
+        &self,
+        dir: Vec3,
+        u_pos: (f32, f32),
+        le: SampledSpectrum,
+        pdf_dir: f32,
+    ) -> Option<LightLeSample> {
+        let p = self.disc_point(dir, u_pos)?;
+        if le == SampledSpectrum::ZERO {
+            return None;
+        }
+        Some(LightLeSample {
+            point: LightPoint {
+                p,
+                p_err: Vec3::ZERO,
+                n: dir,
+                uv: Vec2::ZERO,
+            },
+            dir,
+            le,
+            pdf_pos: self.disc_pdf(),
+            pdf_dir,
+        })
+    }
+}
+
 /// A point on a light, with what a robust shadow ray needs.
 #[derive(Clone, Copy, Debug)]
 pub struct LightPoint {
