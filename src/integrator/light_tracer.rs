@@ -13,9 +13,8 @@
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::interface::{bsdf_at, scatter, trace, Next};
 use super::light_path;
-use super::{lens_sample, russian_roulette, PathCounters, PixelSample};
+use super::{lens_sample, PathCounters, PixelSample};
 use crate::camera::CameraSample;
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
@@ -82,45 +81,33 @@ impl LightTracer {
             }
         }
 
-        let (mut beta, mut ray, mut stack) = (start.beta, start.ray, start.stack);
-        let mut depth = 0;
-        while depth < self.max_depth {
-            let Next::Surface { hit, eta, medium } =
-                trace(scene, &mut ray, &mut stack, &wl, counters)
-            else {
-                break;
-            };
-            depth += 1;
-            let wo = -ray.dir;
-            let bsdf = bsdf_at(scene, &hit, wo, &mut wl, eta);
-
-            // Connect to the camera (Dirac lobes cannot turn towards it).
-            if !bsdf.is_specular() {
-                let u_lens = lens_sample(scene, sampler);
-                if let Some(cs) = scene.camera.sample_wi(hit.p, u_lens) {
-                    let f = bsdf.f(wo, cs.wi, TransportMode::Importance);
-                    if f != SampledSpectrum::ZERO
-                        && self.visible(scene, hit.p, hit.p_err, hit.ng, &cs, counters)
-                    {
-                        let l = beta * f * (bsdf.cos_theta(cs.wi) * cs.weight);
-                        splat(tile, scene, &cs, l, &wl);
-                    }
+        light_path::walk(
+            scene,
+            start,
+            &mut wl,
+            self.max_depth,
+            self.rr_depth,
+            sampler,
+            counters,
+            |v| {
+                // Connect to the camera (Dirac lobes cannot turn towards it).
+                if v.bsdf.is_specular() {
+                    return;
                 }
-            }
-
-            let [u0, u1, uc, u_rr] = sampler.next_4d();
-            let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Importance) else {
-                break;
-            };
-            beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-            ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
-            scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
-
-            // Importance is not scaled at refraction: no η'² to undo.
-            if !russian_roulette(&mut beta, 1.0, depth, self.rr_depth, u_rr) {
-                break;
-            }
-        }
+                let u_lens = lens_sample(scene, v.sampler);
+                let Some(cs) = scene.camera.sample_wi(v.hit.p, u_lens) else {
+                    return;
+                };
+                let f = v.bsdf.f(v.wo, cs.wi, TransportMode::Importance);
+                let hit = v.hit;
+                if f != SampledSpectrum::ZERO
+                    && self.visible(scene, hit.p, hit.p_err, hit.ng, &cs, v.counters)
+                {
+                    let l = v.beta * f * (v.bsdf.cos_theta(cs.wi) * cs.weight);
+                    splat(tile, scene, &cs, l, v.wl);
+                }
+            },
+        );
         none(wl)
     }
 

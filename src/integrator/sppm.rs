@@ -33,12 +33,9 @@ use std::sync::OnceLock;
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::interface::{bsdf_at, scatter, trace, Next};
 use super::light_path;
 use super::path::{PathTracer, Stop};
-use super::{camera_ray, russian_roulette, PathCounters, PixelSample, Strategy};
-use crate::geometry::offset::offset_ray_origin;
-use crate::geometry::Ray;
+use super::{camera_ray, PathCounters, PixelSample, Strategy};
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -308,47 +305,36 @@ impl Sppm {
         else {
             return;
         };
-        let (mut beta, mut ray, mut stack) = (start.beta, start.ray, start.stack);
-        let mut depth = 0;
-        while depth < self.max_depth {
-            let Next::Surface { hit, eta, medium } =
-                trace(scene, &mut ray, &mut stack, &wl, counters)
-            else {
-                break;
-            };
-            depth += 1;
-            let wo = -ray.dir;
-            let bsdf = bsdf_at(scene, &hit, wo, &mut wl, eta);
-            if depth >= 2 && bsdf.flags().contains(BsdfFlags::DIFFUSE) {
+        light_path::walk(
+            scene,
+            start,
+            &mut wl,
+            self.max_depth,
+            self.rr_depth,
+            sampler,
+            counters,
+            |v| {
+                if v.depth < 2 || !v.bsdf.flags().contains(BsdfFlags::DIFFUSE) {
+                    return;
+                }
                 let mut weight = Vec4::ZERO;
                 for k in 0..4 {
-                    if wl.pdf[k] > 0.0 {
-                        weight[k] = beta[k] / (4.0 * wl.pdf[k]);
+                    if v.wl.pdf[k] > 0.0 {
+                        weight[k] = v.beta[k] / (4.0 * v.wl.pdf[k]);
                     }
                 }
                 if weight.is_finite() && weight != Vec4::ZERO {
-                    counters.photons_stored += 1;
+                    v.counters.photons_stored += 1;
                     out.push(Photon {
-                        p: hit.p,
-                        wi: wo,
-                        lambda: wl.lambda,
+                        p: v.hit.p,
+                        wi: v.wo,
+                        lambda: v.wl.lambda,
                         weight,
-                        depth,
+                        depth: v.depth,
                     });
                 }
-            }
-
-            let [u0, u1, uc, u_rr] = sampler.next_4d();
-            let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Importance) else {
-                break;
-            };
-            beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-            ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
-            scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
-            if !russian_roulette(&mut beta, 1.0, depth, self.rr_depth, u_rr) {
-                break;
-            }
-        }
+            },
+        );
     }
 
     /// One sample of pixel (x, y) in the iteration of `map`.
