@@ -68,26 +68,41 @@ pub struct IntegratorSpec {
 }
 
 impl IntegratorSpec {
-    /// Clears the keys that apply only to integrators other than `kind`;
-    /// returns their names.
-    pub fn drop_keys_of_others(&mut self) -> Vec<&'static str> {
-        let mut dropped = Vec::new();
-        if self.kind != IntegratorKind::Path && self.strategy.take().is_some() {
-            dropped.push("strategy");
+    /// The keys given that apply only to integrators other than `kind`,
+    /// each with the integrator it belongs to.
+    pub fn keys_of_others(&self) -> Vec<(&'static str, &'static str)> {
+        let mut keys = Vec::new();
+        if self.kind != IntegratorKind::Path && self.strategy.is_some() {
+            keys.push(("strategy", "the path tracer"));
         }
         if self.kind != IntegratorKind::Sppm {
-            if self.photons.take().is_some() {
-                dropped.push("photons");
+            for (key, given) in [
+                ("photons", self.photons.is_some()),
+                ("radius", self.radius.is_some()),
+                ("alpha", self.alpha.is_some()),
+                ("spectral_radius", self.spectral_radius.is_some()),
+            ] {
+                if given {
+                    keys.push((key, "photon mapping (`sppm`)"));
+                }
             }
-            if self.radius.take().is_some() {
-                dropped.push("radius");
-            }
-            if self.alpha.take().is_some() {
-                dropped.push("alpha");
-            }
-            if self.spectral_radius.take().is_some() {
-                dropped.push("spectral_radius");
-            }
+        }
+        keys
+    }
+
+    /// Clears the keys of `keys_of_others`; returns their names.
+    pub fn drop_keys_of_others(&mut self) -> Vec<&'static str> {
+        let dropped = self
+            .keys_of_others()
+            .into_iter()
+            .map(|(key, _)| key)
+            .collect();
+        if self.kind != IntegratorKind::Path {
+            self.strategy = None;
+        }
+        if self.kind != IntegratorKind::Sppm {
+            (self.photons, self.radius, self.alpha, self.spectral_radius) =
+                (None, None, None, None);
         }
         dropped
     }
@@ -177,23 +192,11 @@ impl Default for Integrator {
 impl Integrator {
     /// From the scene file's `[integrator]` table; the error names the key.
     pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
-        let name = spec.kind.name();
-        let not_for = |key: &str, owner: &str| {
-            format!("`integrator.{key}` applies to {owner}, not to `{name}`")
-        };
-        if spec.kind != IntegratorKind::Path && spec.strategy.is_some() {
-            return Err(not_for("strategy", "the path tracer"));
-        }
-        if spec.kind != IntegratorKind::Sppm {
-            let photon_keys = [
-                ("photons", spec.photons.is_some()),
-                ("radius", spec.radius.is_some()),
-                ("alpha", spec.alpha.is_some()),
-                ("spectral_radius", spec.spectral_radius.is_some()),
-            ];
-            if let Some((key, _)) = photon_keys.iter().find(|(_, given)| *given) {
-                return Err(not_for(key, "photon mapping (`sppm`)"));
-            }
+        if let Some((key, owner)) = spec.keys_of_others().first() {
+            return Err(format!(
+                "`integrator.{key}` applies to {owner}, not to `{}`",
+                spec.kind.name()
+            ));
         }
         let depth = |default: u32| spec.max_depth.unwrap_or(default);
         let rr = |default: u32| spec.rr_depth.unwrap_or(default);
