@@ -186,7 +186,7 @@ pub fn media_at(
     counters: &mut PathCounters,
 ) -> IorStack {
     let mut stack = IorStack::default();
-    if !scene.materials.iter().any(|m| m.ior().is_some()) {
+    if !scene.has_dielectrics() {
         return stack;
     }
     // Any direction does; this one is along no axis, so it does not graze

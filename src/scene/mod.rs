@@ -92,6 +92,8 @@ pub struct Scene {
     /// The bounding sphere of the geometry, as lights at infinity see it.
     pub sphere: SceneSphere,
     bvh: Bvh,
+    /// Some material is a dielectric (paths then track media).
+    has_dielectrics: bool,
     triangles: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
     attributes: VertexAttributes,
@@ -210,6 +212,7 @@ impl Scene {
             camera,
             film,
             integrator,
+            has_dielectrics: materials.iter().any(|m| m.ior().is_some()),
             materials,
             lights: LightSet::new(lights),
             sphere,
@@ -220,6 +223,11 @@ impl Scene {
             degenerate_triangles: degenerate,
             warnings: Vec::new(),
         }
+    }
+
+    /// Whether any material is a dielectric.
+    pub fn has_dielectrics(&self) -> bool {
+        self.has_dielectrics
     }
 
     pub fn triangle_count(&self) -> usize {
