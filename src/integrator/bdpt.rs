@@ -127,13 +127,12 @@ impl Vertex {
         self.kind == Kind::Light && self.light.is_some_and(|i| scene.lights.get(i).is_delta())
     }
 
-    /// Can a connection (a shadow ray) end here?
+    /// Can a connection (a shadow ray) end at this subpath vertex? Only a
+    /// surface with a lobe that has a density: connections to the camera
+    /// and to lights sample fresh endpoints (t = 1, s = 1), and a camera ray
+    /// that escaped has no point to aim at.
     fn connectible(&self) -> bool {
-        match self.kind {
-            Kind::Camera => true,
-            Kind::Light => self.light.is_some(),
-            Kind::Surface => self.bsdf.is_some_and(|b| b.flags().has_non_specular()),
-        }
+        self.kind == Kind::Surface && self.bsdf.is_some_and(|b| b.flags().has_non_specular())
     }
 
     fn dir_to(&self, v: &Vertex) -> Vec3 {
@@ -590,7 +589,7 @@ fn connect(
     } else if t == 1 {
         // A light vertex seen by the camera.
         let qs = &light_path[s - 1];
-        if qs.kind != Kind::Surface || !qs.connectible() {
+        if !qs.connectible() {
             return none;
         }
         let Some(cs) = scene.camera.sample_wi(qs.p, lens_sample(scene, sampler)) else {
@@ -613,7 +612,7 @@ fn connect(
     } else if s == 1 {
         // A point sampled on a light, joined to a camera vertex.
         let pt = &camera_path[t - 1];
-        if !pt.connectible() || pt.kind != Kind::Surface {
+        if !pt.connectible() {
             return none;
         }
         let [p0, p1, u_light, _] = u_direct.unwrap_or_else(|| sampler.next_4d());
@@ -657,9 +656,6 @@ fn connect(
     } else {
         // A shadow ray between a light vertex and a camera vertex.
         let (qs, pt) = (&light_path[s - 1], &camera_path[t - 1]);
-        if qs.kind != Kind::Surface || pt.kind != Kind::Surface {
-            return none;
-        }
         if !qs.connectible() || !pt.connectible() {
             return none;
         }
