@@ -223,7 +223,7 @@ fn bad_maps_are_clear_errors() {
         "{e}"
     );
     let e = error("file = \"nan.exr\"\nradiance = 1\n".into());
-    assert!(e.contains("either `radiance`"), "{e}");
+    assert!(e.contains("one of `radiance`"), "{e}");
     let e = error("radiance = 1\nrotate = 10\n".into());
     assert!(e.contains("environment.rotate"), "{e}");
 }

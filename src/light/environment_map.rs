@@ -13,109 +13,23 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
+use super::lat_long::SphericalDistribution;
 use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::spectrum::cie;
 use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
-/// A piecewise-constant distribution over [0, 1)² on a grid of cells.
-#[derive(Clone, Debug)]
-struct Distribution2d {
-    width: usize,
-    height: usize,
-    /// Per row: the cumulative sums of its cells, normalised (len width + 1).
-    conditional: Vec<f32>,
-    /// Cumulative row sums, normalised (len height + 1).
-    marginal: Vec<f32>,
-    /// Each cell's probability.
-    cell: Vec<f32>,
-}
-
-/// Index i with cdf[i] ≤ u < cdf[i + 1] (skipping empty cells), and the
-/// position of u within it.
-fn invert(cdf: &[f32], u: f32) -> (usize, f32) {
-    let n = cdf.len() - 1;
-    let i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
-    let width = cdf[i + 1] - cdf[i];
-    let t = if width > 0.0 {
-        ((u - cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
-    } else {
-        0.5
-    };
-    (i, t)
-}
-
-fn cumulative(weights: &[f64]) -> (Vec<f32>, f64) {
-    let total: f64 = weights.iter().sum();
-    let mut cdf = Vec::with_capacity(weights.len() + 1);
-    let mut sum = 0.0;
-    cdf.push(0.0);
-    for w in weights {
-        sum += w;
-        cdf.push(if total > 0.0 {
-            (sum / total) as f32
-        } else {
-            0.0
-        });
-    }
-    *cdf.last_mut().expect("one entry at least") = 1.0;
-    (cdf, total)
-}
-
-impl Distribution2d {
-    fn new(weights: &[f64], width: usize, height: usize) -> Self {
-        let total: f64 = weights.iter().sum();
-        let mut conditional = Vec::with_capacity(height * (width + 1));
-        let mut rows = Vec::with_capacity(height);
-        for row in weights.chunks_exact(width) {
-            let (cdf, sum) = cumulative(row);
-            conditional.extend(cdf);
-            rows.push(sum);
-        }
-        let (marginal, _) = cumulative(&rows);
-        let cell = weights
-            .iter()
-            .map(|w| if total > 0.0 { (w / total) as f32 } else { 0.0 })
-            .collect();
-        Self {
-            width,
-            height,
-            conditional,
-            marginal,
-            cell,
-        }
-    }
-
-    /// A point of [0, 1)² and its density there.
-    fn sample(&self, u: (f32, f32)) -> (Vec2, f32) {
-        let (j, tv) = invert(&self.marginal, u.1);
-        let row = &self.conditional[j * (self.width + 1)..(j + 1) * (self.width + 1)];
-        let (i, tu) = invert(row, u.0);
-        let p = Vec2::new(
-            (i as f32 + tu) / self.width as f32,
-            (j as f32 + tv) / self.height as f32,
-        );
-        (p, self.pdf_cell(i, j))
-    }
-
-    fn pdf_cell(&self, i: usize, j: usize) -> f32 {
-        self.cell[j * self.width + i] * (self.width * self.height) as f32
-    }
-}
-
 #[derive(Clone, Debug)]
 pub struct EnvironmentMap {
     width: usize,
-    height: usize,
     /// Per texel: sigmoid coefficients and scale (user scale and the D65
     /// normalisation included).
     texels: Vec<[f32; 4]>,
     d65: Spectrum,
-    distribution: Distribution2d,
-    /// Rotation about +y, as cos and sin.
-    rotation: (f32, f32),
+    /// The grid of texels, and light sampling over it.
+    sphere: SphericalDistribution,
     /// Mean luminance over the sphere (for the light's power).
     mean_luminance: f64,
     scene: SceneSphere,
@@ -147,14 +61,11 @@ impl EnvironmentMap {
             );
             luminance_integral += y * (2.0 * PI / width as f32 * (t0.cos() - t1.cos())) as f64;
         }
-        let a = rotate_degrees.to_radians();
         Self {
             width,
-            height,
             texels,
             d65: Spectrum::Table(d65.clone()),
-            distribution: Distribution2d::new(&weights, width, height),
-            rotation: (a.cos(), a.sin()),
+            sphere: SphericalDistribution::new(&weights, width, height, rotate_degrees),
             mean_luminance: luminance_integral / (4.0 * PI as f64),
             scene: SceneSphere::default(),
         }
@@ -171,38 +82,9 @@ impl EnvironmentMap {
         self.mean_luminance * 4.0 * std::f64::consts::PI * std::f64::consts::PI * r * r
     }
 
-    /// World direction (towards the sky) → map coordinates in [0, 1)².
-    fn uv(&self, w: Vec3) -> Vec2 {
-        let (c, s) = self.rotation;
-        // Undo the rotation about +y.
-        let x = c * w.x - s * w.z;
-        let z = s * w.x + c * w.z;
-        let u = 0.5 * (1.0 + x.atan2(z) / PI);
-        let v = w.y.clamp(-1.0, 1.0).acos() / PI;
-        Vec2::new(u.rem_euclid(1.0), v.min(1.0 - f32::EPSILON))
-    }
-
-    /// Map coordinates → world direction, and sin θ.
-    fn direction(&self, uv: Vec2) -> (Vec3, f32) {
-        let phi = (2.0 * uv.x - 1.0) * PI;
-        let theta = uv.y * PI;
-        let (sin_t, cos_t) = theta.sin_cos();
-        // In the map's frame: atan2(x, z) = φ.
-        let (x, z) = (sin_t * phi.sin(), sin_t * phi.cos());
-        let (c, s) = self.rotation;
-        let w = Vec3::new(c * x + s * z, cos_t, -s * x + c * z);
-        (w, sin_t)
-    }
-
-    fn texel(&self, uv: Vec2) -> (usize, usize) {
-        let i = ((uv.x * self.width as f32) as usize).min(self.width - 1);
-        let j = ((uv.y * self.height as f32) as usize).min(self.height - 1);
-        (i, j)
-    }
-
     /// Radiance arriving from direction `w` (towards the sky).
     pub fn radiance(&self, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        let (i, j) = self.texel(self.uv(w));
+        let (i, j) = self.sphere.cell(self.sphere.uv(w));
         let [c0, c1, c2, scale] = self.texels[j * self.width + i];
         if scale == 0.0 {
             return SampledSpectrum::ZERO;
@@ -216,26 +98,11 @@ impl EnvironmentMap {
 
     /// Solid-angle density of `sample_li` for direction `w` (towards the sky).
     pub fn pdf_li(&self, w: Vec3) -> f32 {
-        let uv = self.uv(w);
-        let (i, j) = self.texel(uv);
-        let sin_t = (1.0 - w.y * w.y).max(0.0).sqrt();
-        if sin_t == 0.0 {
-            return 0.0;
-        }
-        self.distribution.pdf_cell(i, j) / (2.0 * PI * PI * sin_t)
-    }
-
-    fn sample_direction(&self, u: (f32, f32)) -> Option<(Vec3, f32)> {
-        let (uv, pdf_uv) = self.distribution.sample(u);
-        let (w, sin_t) = self.direction(uv);
-        if pdf_uv == 0.0 || sin_t == 0.0 {
-            return None;
-        }
-        Some((w, pdf_uv / (2.0 * PI * PI * sin_t)))
+        self.sphere.pdf(w)
     }
 
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        let (wi, pdf) = self.sample_direction(u)?;
+        let (wi, pdf) = self.sphere.sample(u)?;
         let li = self.radiance(wi, wl);
         if li == SampledSpectrum::ZERO {
             return None;
@@ -256,7 +123,7 @@ impl EnvironmentMap {
         u_dir: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
-        let (wi, pdf_dir) = self.sample_direction(u_dir)?;
+        let (wi, pdf_dir) = self.sphere.sample(u_dir)?;
         self.scene
             .ray_from_infinity(-wi, u_pos, self.radiance(wi, wl), pdf_dir)
     }
@@ -270,6 +137,7 @@ impl EnvironmentMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec2;
 
     fn map(width: usize, height: usize, f: impl Fn(usize, usize) -> Vec3) -> EnvironmentMap {
         let rgb: Vec<Vec3> = (0..height)
@@ -287,14 +155,18 @@ mod tests {
             Vec2::new(0.77, 0.5),
             Vec2::new(0.5, 0.9),
         ] {
-            let (w, _) = m.direction(uv);
+            let (w, _) = m.sphere.direction(uv);
             assert!((w.length() - 1.0).abs() < 1e-5);
-            assert!((m.uv(w) - uv).length() < 1e-4, "{uv} → {w} → {}", m.uv(w));
+            assert!(
+                (m.sphere.uv(w) - uv).length() < 1e-4,
+                "{uv} → {w} → {}",
+                m.sphere.uv(w)
+            );
         }
         // Unrotated, the image's centre looks along +z and its top is +y.
         let m = EnvironmentMap::new(2, 2, &[Vec3::ONE; 4], 1.0, 0.0);
-        assert!((m.direction(Vec2::new(0.5, 0.5)).0 - Vec3::Z).length() < 1e-5);
-        assert!(m.direction(Vec2::new(0.3, 0.01)).0.y > 0.99);
+        assert!((m.sphere.direction(Vec2::new(0.5, 0.5)).0 - Vec3::Z).length() < 1e-5);
+        assert!(m.sphere.direction(Vec2::new(0.3, 0.01)).0.y > 0.99);
     }
 
     #[test]
@@ -304,7 +176,7 @@ mod tests {
         });
         let mut s = crate::sampler::Sampler::new(5, 9);
         for _ in 0..2000 {
-            let (w, pdf) = m.sample_direction(s.next_2d()).unwrap();
+            let (w, pdf) = m.sphere.sample(s.next_2d()).unwrap();
             assert!(
                 (m.pdf_li(w) - pdf).abs() <= 1e-3 * pdf,
                 "{} vs {pdf}",

@@ -15,8 +15,12 @@ mod area;
 mod directional;
 mod environment;
 mod environment_map;
+mod hosek_wilkie;
+mod lat_long;
 mod point;
 mod selection;
+mod sky;
+mod sun;
 
 use std::f32::consts::PI;
 
@@ -26,8 +30,11 @@ pub use area::AreaLight;
 pub use directional::DirectionalLight;
 pub use environment::UniformEnvironment;
 pub use environment_map::EnvironmentMap;
+pub use hosek_wilkie::{band_wavelength, SkyModel, BANDS as SKY_BANDS, SUN_DIAMETER_DEGREES};
 pub use point::{Cone, PointLight};
 pub use selection::PowerSelection;
+pub use sky::Sky;
+pub use sun::Sun;
 
 use crate::geometry::Frame;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
@@ -178,6 +185,10 @@ pub enum Light {
     Environment(UniformEnvironment),
     /// Radiance at infinity from an equirectangular image.
     EnvironmentMap(EnvironmentMap),
+    /// The Hosek–Wilkie sky dome.
+    Sky(Sky),
+    /// The Hosek–Wilkie sun: a small disc at infinity.
+    Sun(Sun),
 }
 
 impl Light {
@@ -186,7 +197,11 @@ impl Light {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Light::Area(_) | Light::Environment(_) | Light::EnvironmentMap(_) => false,
+            Light::Area(_)
+            | Light::Environment(_)
+            | Light::EnvironmentMap(_)
+            | Light::Sky(_)
+            | Light::Sun(_) => false,
             Light::Point(_) | Light::Directional(_) => true,
         }
     }
@@ -197,7 +212,11 @@ impl Light {
     pub fn is_infinite(&self) -> bool {
         matches!(
             self,
-            Light::Directional(_) | Light::Environment(_) | Light::EnvironmentMap(_)
+            Light::Directional(_)
+                | Light::Environment(_)
+                | Light::EnvironmentMap(_)
+                | Light::Sky(_)
+                | Light::Sun(_)
         )
     }
 
@@ -207,6 +226,8 @@ impl Light {
             Light::Directional(l) => Light::Directional(l.with_scene(sphere)),
             Light::Environment(l) => Light::Environment(l.with_scene(sphere)),
             Light::EnvironmentMap(l) => Light::EnvironmentMap(l.with_scene(sphere)),
+            Light::Sky(l) => Light::Sky(l.with_scene(sphere)),
+            Light::Sun(l) => Light::Sun(l.with_scene(sphere)),
             other => other,
         }
     }
@@ -219,6 +240,8 @@ impl Light {
             Light::Directional(l) => l.power(),
             Light::Environment(l) => l.power(),
             Light::EnvironmentMap(l) => l.power(),
+            Light::Sky(l) => l.power(),
+            Light::Sun(l) => l.power(),
         }
     }
 
@@ -235,6 +258,8 @@ impl Light {
             Light::Directional(l) => l.sample_li(wl),
             Light::Environment(l) => l.sample_li(u, wl),
             Light::EnvironmentMap(l) => l.sample_li(u, wl),
+            Light::Sky(l) => l.sample_li(u, wl),
+            Light::Sun(l) => l.sample_li(u, wl),
         }
     }
 
@@ -248,6 +273,8 @@ impl Light {
             (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
             (Light::Environment(l), None) => l.pdf_li(),
             (Light::EnvironmentMap(l), None) => l.pdf_li(wi),
+            (Light::Sky(l), None) => l.pdf_li(wi),
+            (Light::Sun(l), None) => l.pdf_li(wi),
             _ => 0.0,
         }
     }
@@ -261,7 +288,9 @@ impl Light {
             Light::Point(_)
             | Light::Directional(_)
             | Light::Environment(_)
-            | Light::EnvironmentMap(_) => SampledSpectrum::ZERO,
+            | Light::EnvironmentMap(_)
+            | Light::Sky(_)
+            | Light::Sun(_) => SampledSpectrum::ZERO,
         }
     }
 
@@ -273,6 +302,8 @@ impl Light {
             Light::Environment(l) => l.le(wl),
             // `dir` travels away from the scene: the sky seen that way.
             Light::EnvironmentMap(l) => l.radiance(dir, wl),
+            Light::Sky(l) => l.radiance(dir, wl),
+            Light::Sun(l) => l.radiance(dir, wl),
             _ => SampledSpectrum::ZERO,
         }
     }
@@ -289,6 +320,8 @@ impl Light {
             Light::Directional(l) => l.sample_le(u_pos, wl),
             Light::Environment(l) => l.sample_le(u_pos, u_dir, wl),
             Light::EnvironmentMap(l) => l.sample_le(u_pos, u_dir, wl),
+            Light::Sky(l) => l.sample_le(u_pos, u_dir, wl),
+            Light::Sun(l) => l.sample_le(u_pos, u_dir, wl),
         }
     }
 
@@ -301,6 +334,8 @@ impl Light {
             Light::Directional(l) => l.pdf_le(),
             Light::Environment(l) => l.pdf_le(),
             Light::EnvironmentMap(l) => l.pdf_le(dir),
+            Light::Sky(l) => l.pdf_le(dir),
+            Light::Sun(l) => l.pdf_le(dir),
         }
     }
 }

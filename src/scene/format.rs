@@ -41,10 +41,33 @@ pub struct EnvironmentSpec {
     pub radiance: Option<SpectrumSpec>,
     /// An equirectangular map: .exr or .hdr (linear), or PNG/JPEG (sRGB).
     pub file: Option<String>,
+    /// The Hosek–Wilkie sky and sun.
+    pub sky: Option<SkySpec>,
     /// Multiplies the radiance.
     pub scale: Option<f32>,
     /// Degrees about the up axis (+y), maps only.
     pub rotate: Option<f32>,
+}
+
+/// `environment.sky`: the spectral Hosek–Wilkie sky with its sun.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkySpec {
+    /// Degrees above the horizon, 0 to 90.
+    pub sun_elevation: f32,
+    /// Degrees about +y, from +z towards +x (default 0).
+    pub sun_azimuth: Option<f32>,
+    /// Atmospheric turbidity, 1 (very clear) to 10 (hazy); default 3.
+    pub turbidity: Option<f32>,
+    /// Reflectance of the ground under the atmosphere, 0 to 1; default 0.3.
+    pub ground_albedo: Option<SpectrumSpec>,
+    /// Multiplies the sun's disc (default 1; 0 leaves the sky alone).
+    pub sun_scale: Option<f32>,
+    /// Multiplies the sky dome (default 1).
+    pub sky_scale: Option<f32>,
+    /// The sun's angular diameter in degrees (default 0.5358, the real
+    /// sun's); larger softens shadows and keeps the irradiance.
+    pub sun_aperture: Option<f32>,
 }
 
 /// A `[[light]]`: a point, spot or directional light (area lights are

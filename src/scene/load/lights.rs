@@ -2,15 +2,19 @@
 //! `[environment]`.
 
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 use glam::Vec3;
 
 use super::spectra::Role;
 use super::{Loader, MAX_COORDINATE};
-use crate::light::{Cone, DirectionalLight, EnvironmentMap, Light, PointLight, UniformEnvironment};
-use crate::scene::format::{EnvironmentSpec, LightKind, LightSpec, SceneFile};
+use crate::light::{
+    band_wavelength, Cone, DirectionalLight, EnvironmentMap, Light, PointLight, Sky, SkyModel, Sun,
+    UniformEnvironment, SKY_BANDS, SUN_DIAMETER_DEGREES,
+};
+use crate::scene::format::{EnvironmentSpec, LightKind, LightSpec, SceneFile, SkySpec};
 use crate::scene::SceneError;
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 impl Loader {
     pub(super) fn lights(&self, file: &SceneFile) -> Result<Vec<Light>, SceneError> {
@@ -21,18 +25,22 @@ impl Loader {
             .map(|(i, spec)| self.light(spec, file, &format!("light[{i}]")))
             .collect::<Result<Vec<_>, _>>()?;
         if let Some(env) = &file.environment {
-            lights.push(self.environment(env, file)?);
+            lights.extend(self.environment(env, file)?);
         }
         Ok(lights)
     }
 
-    fn environment(&self, env: &EnvironmentSpec, file: &SceneFile) -> Result<Light, SceneError> {
+    fn environment(
+        &self,
+        env: &EnvironmentSpec,
+        file: &SceneFile,
+    ) -> Result<Vec<Light>, SceneError> {
         let scale = env.scale.unwrap_or(1.0);
         if !(scale >= 0.0) {
             return Err(self.error("`environment.scale` must not be negative"));
         }
-        match (&env.radiance, &env.file) {
-            (Some(radiance), None) => {
+        match (&env.radiance, &env.file, &env.sky) {
+            (Some(radiance), None, None) => {
                 if env.rotate.is_some() {
                     return Err(self.error(
                         "`environment.rotate` applies to a map (`file`), not to a constant `radiance`",
@@ -41,21 +49,100 @@ impl Loader {
                 let radiance = self
                     .spectrum(radiance, Role::Emission, file, "environment.radiance")?
                     .scaled(scale);
-                Ok(Light::Environment(UniformEnvironment::new(radiance)))
+                Ok(vec![Light::Environment(UniformEnvironment::new(radiance))])
             }
-            (None, Some(rel)) => {
+            (None, Some(rel), None) => {
                 let path = self.base.join(rel);
                 let (w, h, rgb) = read_radiance_image(&path)
                     .map_err(|e| self.error(format!("`environment.file`: {e}")))?;
                 let rotate = env.rotate.unwrap_or(0.0);
-                Ok(Light::EnvironmentMap(EnvironmentMap::new(
+                Ok(vec![Light::EnvironmentMap(EnvironmentMap::new(
                     w as usize, h as usize, &rgb, scale, rotate,
-                )))
+                ))])
+            }
+            (None, None, Some(sky)) => {
+                if env.rotate.is_some() {
+                    return Err(self.error(
+                        "`environment.rotate` applies to a map (`file`); turn a sky with `sky.sun_azimuth`",
+                    ));
+                }
+                self.sky(sky, scale, file)
             }
             _ => Err(self.error(
-                "`[environment]` takes either `radiance` (a constant sky) or `file` (a map)",
+                "`[environment]` takes one of `radiance` (a constant sky), `file` (a map) or `sky` (sun and sky)",
             )),
         }
+    }
+
+    /// The Hosek–Wilkie sky dome and sun disc, each a light.
+    fn sky(&self, sky: &SkySpec, scale: f32, file: &SceneFile) -> Result<Vec<Light>, SceneError> {
+        let in_range = |key: &str, v: f32, lo: f32, hi: f32, what: &str| {
+            if (lo..=hi).contains(&v) {
+                Ok(v)
+            } else {
+                Err(self.error(format!(
+                    "`environment.sky.{key}` = {v} is outside [{lo}, {hi}]{what}"
+                )))
+            }
+        };
+        let elevation = in_range(
+            "sun_elevation",
+            sky.sun_elevation,
+            0.0,
+            90.0,
+            " degrees: the Hosek–Wilkie model covers a sun above the horizon",
+        )?;
+        let azimuth = sky.sun_azimuth.unwrap_or(0.0);
+        let turbidity = in_range(
+            "turbidity",
+            sky.turbidity.unwrap_or(3.0),
+            1.0,
+            10.0,
+            ", the model's range (1 very clear, 10 hazy)",
+        )?;
+        let sun_scale = in_range("sun_scale", sky.sun_scale.unwrap_or(1.0), 0.0, f32::MAX, "")?;
+        let sky_scale = in_range("sky_scale", sky.sky_scale.unwrap_or(1.0), 0.0, f32::MAX, "")?;
+        let aperture = sky.sun_aperture.unwrap_or(SUN_DIAMETER_DEGREES);
+        if !(aperture > 0.0 && aperture <= 45.0) {
+            return Err(self.error(format!(
+                "`environment.sky.sun_aperture` = {aperture} must lie in (0, 45] degrees"
+            )));
+        }
+        let albedo_spectrum = match &sky.ground_albedo {
+            Some(s) => {
+                self.spectrum(s, Role::Reflectance, file, "environment.sky.ground_albedo")?
+            }
+            None => Spectrum::Constant(0.3),
+        };
+        // The model's bands start at 320 nm, below the spectra prism keeps.
+        let albedo: [f32; SKY_BANDS] = std::array::from_fn(|b| {
+            albedo_spectrum.eval(band_wavelength(b).clamp(LAMBDA_MIN, LAMBDA_MAX))
+        });
+        if let Some(a) = albedo.iter().find(|a| !(0.0..=1.0).contains(*a)) {
+            return Err(self.error(format!(
+                "`environment.sky.ground_albedo` must lie in [0, 1], found {a}"
+            )));
+        }
+        let (e, a) = (elevation.to_radians(), azimuth.to_radians());
+        let towards_sun = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
+        let model = Arc::new(SkyModel::new(e, turbidity, albedo));
+        let mut lights = Vec::new();
+        if sky_scale * scale > 0.0 {
+            lights.push(Light::Sky(Sky::new(
+                model.clone(),
+                towards_sun,
+                sky_scale * scale,
+            )));
+        }
+        if sun_scale * scale > 0.0 {
+            lights.push(Light::Sun(Sun::new(
+                model,
+                towards_sun,
+                aperture,
+                sun_scale * scale,
+            )));
+        }
+        Ok(lights)
     }
 
     fn light(&self, spec: &LightSpec, file: &SceneFile, key: &str) -> Result<Light, SceneError> {

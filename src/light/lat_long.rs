@@ -1,0 +1,181 @@
+//! Directions at infinity on a latitude-longitude grid, +y up, and a
+//! piecewise-constant distribution over its cells: how the environment map
+//! and the sky pick directions in proportion to their radiance.
+//!
+//! Grid coordinates (u, v) ∈ [0, 1)²: v = θ/π from the zenith (+y); u = 0.5
+//! looks along +z and u grows towards +x. A rotation turns the grid about
+//! +y (positive: from +z towards +x).
+
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+
+/// A piecewise-constant distribution over [0, 1)² on a grid of cells.
+#[derive(Clone, Debug)]
+struct Distribution2d {
+    width: usize,
+    height: usize,
+    /// Per row: the cumulative sums of its cells, normalised (len width + 1).
+    conditional: Vec<f32>,
+    /// Cumulative row sums, normalised (len height + 1).
+    marginal: Vec<f32>,
+    /// Each cell's probability.
+    cell: Vec<f32>,
+}
+
+/// Index i with cdf[i] ≤ u < cdf[i + 1] (skipping empty cells), and the
+/// position of u within it.
+fn invert(cdf: &[f32], u: f32) -> (usize, f32) {
+    let n = cdf.len() - 1;
+    let i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
+    let width = cdf[i + 1] - cdf[i];
+    let t = if width > 0.0 {
+        ((u - cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+    } else {
+        0.5
+    };
+    (i, t)
+}
+
+fn cumulative(weights: &[f64]) -> (Vec<f32>, f64) {
+    let total: f64 = weights.iter().sum();
+    let mut cdf = Vec::with_capacity(weights.len() + 1);
+    let mut sum = 0.0;
+    cdf.push(0.0);
+    for w in weights {
+        sum += w;
+        cdf.push(if total > 0.0 {
+            (sum / total) as f32
+        } else {
+            0.0
+        });
+    }
+    *cdf.last_mut().expect("one entry at least") = 1.0;
+    (cdf, total)
+}
+
+impl Distribution2d {
+    fn new(weights: &[f64], width: usize, height: usize) -> Self {
+        let total: f64 = weights.iter().sum();
+        let mut conditional = Vec::with_capacity(height * (width + 1));
+        let mut rows = Vec::with_capacity(height);
+        for row in weights.chunks_exact(width) {
+            let (cdf, sum) = cumulative(row);
+            conditional.extend(cdf);
+            rows.push(sum);
+        }
+        let (marginal, _) = cumulative(&rows);
+        let cell = weights
+            .iter()
+            .map(|w| if total > 0.0 { (w / total) as f32 } else { 0.0 })
+            .collect();
+        Self {
+            width,
+            height,
+            conditional,
+            marginal,
+            cell,
+        }
+    }
+
+    /// A point of [0, 1)² and its density there.
+    fn sample(&self, u: (f32, f32)) -> (Vec2, f32) {
+        let (j, tv) = invert(&self.marginal, u.1);
+        let row = &self.conditional[j * (self.width + 1)..(j + 1) * (self.width + 1)];
+        let (i, tu) = invert(row, u.0);
+        let p = Vec2::new(
+            (i as f32 + tu) / self.width as f32,
+            (j as f32 + tv) / self.height as f32,
+        );
+        (p, self.pdf_cell(i, j))
+    }
+
+    fn pdf_cell(&self, i: usize, j: usize) -> f32 {
+        self.cell[j * self.width + i] * (self.width * self.height) as f32
+    }
+}
+
+/// Grid coordinates → direction in the grid's own frame, and sin θ.
+pub fn grid_direction(uv: Vec2) -> (Vec3, f32) {
+    let phi = (2.0 * uv.x - 1.0) * PI;
+    let theta = uv.y * PI;
+    let (sin_t, cos_t) = theta.sin_cos();
+    // atan2(x, z) = φ.
+    (
+        Vec3::new(sin_t * phi.sin(), cos_t, sin_t * phi.cos()),
+        sin_t,
+    )
+}
+
+/// A distribution over directions from one over the cells of a
+/// `width` × `height` latitude-longitude grid.
+#[derive(Clone, Debug)]
+pub struct SphericalDistribution {
+    width: usize,
+    height: usize,
+    cells: Distribution2d,
+    /// Rotation about +y, as cos and sin.
+    rotation: (f32, f32),
+}
+
+impl SphericalDistribution {
+    /// `weights` per cell, rows from the zenith, each the cell's share of
+    /// the wanted density per unit of (u, v) (radiance × sin θ).
+    pub fn new(weights: &[f64], width: usize, height: usize, rotate_degrees: f32) -> Self {
+        assert_eq!(weights.len(), width * height);
+        let a = rotate_degrees.to_radians();
+        Self {
+            width,
+            height,
+            cells: Distribution2d::new(weights, width, height),
+            rotation: (a.cos(), a.sin()),
+        }
+    }
+
+    /// World direction (towards the sky) → grid coordinates in [0, 1)².
+    pub fn uv(&self, w: Vec3) -> Vec2 {
+        let (c, s) = self.rotation;
+        // Undo the rotation about +y.
+        let x = c * w.x - s * w.z;
+        let z = s * w.x + c * w.z;
+        let u = 0.5 * (1.0 + x.atan2(z) / PI);
+        let v = w.y.clamp(-1.0, 1.0).acos() / PI;
+        Vec2::new(u.rem_euclid(1.0), v.min(1.0 - f32::EPSILON))
+    }
+
+    /// Grid coordinates → world direction, and sin θ.
+    pub fn direction(&self, uv: Vec2) -> (Vec3, f32) {
+        let (g, sin_t) = grid_direction(uv);
+        let (c, s) = self.rotation;
+        let w = Vec3::new(c * g.x + s * g.z, g.y, -s * g.x + c * g.z);
+        (w, sin_t)
+    }
+
+    /// The cell (column, row) holding grid coordinates `uv`.
+    pub fn cell(&self, uv: Vec2) -> (usize, usize) {
+        let i = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let j = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        (i, j)
+    }
+
+    /// Solid-angle density of `sample` for direction `w` (towards the sky).
+    pub fn pdf(&self, w: Vec3) -> f32 {
+        let (i, j) = self.cell(self.uv(w));
+        let sin_t = (1.0 - w.y * w.y).max(0.0).sqrt();
+        if sin_t == 0.0 {
+            return 0.0;
+        }
+        self.cells.pdf_cell(i, j) / (2.0 * PI * PI * sin_t)
+    }
+
+    /// A direction (towards the sky) and its solid-angle density; None
+    /// where the density vanishes.
+    pub fn sample(&self, u: (f32, f32)) -> Option<(Vec3, f32)> {
+        let (uv, pdf_uv) = self.cells.sample(u);
+        let (w, sin_t) = self.direction(uv);
+        if pdf_uv == 0.0 || sin_t == 0.0 {
+            return None;
+        }
+        Some((w, pdf_uv / (2.0 * PI * PI * sin_t)))
+    }
+}
