@@ -9,7 +9,7 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use glam::Vec3;
 use prism::camera::Camera;
-use prism::film::{FilmSettings, SpectralLayout, Tonemap};
+use prism::film::{FilmSettings, SpectralLayout};
 use prism::geometry::Ray;
 use prism::integrator::{Integrator, PathCounters, PathTracer};
 use prism::material::Material;
@@ -77,18 +77,14 @@ fn terrain_mesh(n: u32) -> Mesh {
 fn terrain(mesh: Mesh) -> Scene {
     let (w, h) = (512, 512);
     let film = FilmSettings {
-        width: w,
-        height: h,
         spp: 1,
-        seed: 0,
         layout: SpectralLayout {
             min: 380.0,
             max: 780.0,
             count: 1,
         },
         spectral_output: false,
-        exposure: 0.0,
-        tonemap: Tonemap::Clamp,
+        ..FilmSettings::new(w, h)
     };
     let integrator = Integrator::Path(PathTracer {
         max_depth: 4,

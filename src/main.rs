@@ -8,7 +8,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
-use prism::film::Tonemap;
+use prism::film::{Gamut, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
 use prism::job::{describe, merge_files, render_files, MergeJob, RenderJob};
 use prism::scene::Overrides;
@@ -61,6 +61,10 @@ enum Command {
         /// Tone map of the PNG (overrides film.tonemap).
         #[arg(long, value_enum)]
         tonemap: Option<TonemapArg>,
+        /// Out-of-gamut colours of the PNG: clip each channel, or map them
+        /// in by chroma reduction in OKLCh (overrides film.gamut).
+        #[arg(long, value_enum)]
+        gamut: Option<GamutArg>,
         /// Integrator (overrides integrator.type): path tracing from the
         /// camera, light tracing (paths from the lights, for caustics seen
         /// directly), or bidirectional path tracing (both, joined by MIS).
@@ -179,6 +183,13 @@ fn parse_range(s: &str) -> Result<[f32; 2], String> {
 enum TonemapArg {
     Clamp,
     Reinhard,
+    Filmic,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum GamutArg {
+    Clip,
+    Map,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -212,6 +223,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             seed,
             exposure,
             tonemap,
+            gamut,
             integrator,
             strategy,
             spectral_range,
@@ -228,6 +240,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 tonemap: tonemap.map(|t| match t {
                     TonemapArg::Clamp => Tonemap::Clamp,
                     TonemapArg::Reinhard => Tonemap::Reinhard,
+                    TonemapArg::Filmic => Tonemap::Filmic,
+                }),
+                gamut: gamut.map(|g| match g {
+                    GamutArg::Clip => Gamut::Clip,
+                    GamutArg::Map => Gamut::Map,
                 }),
                 integrator,
                 strategy: strategy.map(|s| match s {

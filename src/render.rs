@@ -211,7 +211,8 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                     if cancelled() && !whole_passes {
                         return None;
                     }
-                    let mut tile = FilmTile::new(x0, y0, w, h, f.width, layout);
+                    let mut tile =
+                        FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
                     let mut counters = PathCounters::default();
                     let mut bad = 0;
                     for y in y0..y0 + h {

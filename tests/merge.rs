@@ -235,3 +235,54 @@ fn region_refused(kind: &str) {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("not a region"), "{err}");
 }
+
+/// A merge writes the PNG and the EXR as the render would: the parts carry
+/// their colour space, display, gamut and bit depth.
+#[test]
+fn merged_parts_keep_their_colour_space_and_display() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(
+        &scene,
+        "[camera]\nposition = [0, 1, -4]\nlook_at = [0, 0.5, 0]\n\
+         [film]\nresolution = [24, 16]\nspp = 16\ncolour_space = \"acescg\"\n\
+         display = \"display-p3\"\npng_bits = 16\ngamut = \"map\"\nwhite_balance = \"A\"\n\
+         [materials.red]\ntype = \"diffuse\"\nreflectance = { rgb = [0.9, 0.1, 0.05] }\n\
+         [[shape]]\ntype = \"quad\"\nvertices = [[-3, 0, -3], [-3, 0, 3], [3, 0, 3], [3, 0, -3]]\nmaterial = \"red\"\n\
+         [[shape]]\ntype = \"sphere\"\ncenter = [0, 3, 0]\nradius = 0.5\nemission = \"A\"\n",
+    )
+    .unwrap();
+    let scene = scene.to_str().unwrap();
+    let stem = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    ok(&["render", scene, "-q", "-o", &stem("whole")]);
+    for (name, range) in [("a", "0..7"), ("b", "7..16")] {
+        ok(&["render", scene, "-q", "-o", &stem(name), "--samples", range]);
+    }
+    ok(&[
+        "merge",
+        &format!("{}.spectral.exr", stem("a")),
+        &format!("{}.spectral.exr", stem("b")),
+        "-o",
+        &stem("merged"),
+    ]);
+    let png = |name: &str| {
+        let path = format!("{}.png", stem(name));
+        let bytes = std::fs::read(&path).unwrap();
+        let at = bytes.windows(4).position(|w| w == b"cICP").unwrap();
+        assert_eq!(&bytes[at + 4..at + 8], &[12, 13, 0, 1], "{path}");
+        image::open(&path).unwrap().to_rgb16().into_raw()
+    };
+    let (whole, merged) = (png("whole"), png("merged"));
+    // The merge goes through the float32 RGB of the parts: a level at most.
+    let worst = whole
+        .iter()
+        .zip(&merged)
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    assert!(worst <= 2, "16-bit levels apart: {worst}");
+    for name in ["whole", "merged"] {
+        let exr = spectral_exr::read(Path::new(&format!("{}.spectral.exr", stem(name)))).unwrap();
+        assert_eq!(exr.attributes["prismColourSpace"], "acescg");
+    }
+}

@@ -303,3 +303,38 @@ fn photon_mapping_keys_are_checked_and_dropped_when_the_command_line_chooses_ano
         );
     }
 }
+
+#[test]
+fn bad_colour_settings_name_the_key() {
+    let light = "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n";
+    let film = |keys: &str| error(&format!("{CAMERA}[film]\n{keys}\n{light}"));
+    let e = film("colour_space = \"adobe-rgb\"");
+    assert!(
+        e.contains("colour_space") && e.contains("acescg") && e.contains("adobe-rgb"),
+        "{e}"
+    );
+    let e = film("observer = \"cie1931\"");
+    assert!(e.contains("observer") && e.contains("cie1931-2"), "{e}");
+    let e = film("png_bits = 12");
+    assert!(e.contains("film.png_bits") && e.contains("8 or 16"), "{e}");
+    let e = film("gamut = \"compress\"");
+    assert!(e.contains("gamut") && e.contains("map"), "{e}");
+    let e = film("display = \"rec2020\"");
+    assert!(e.contains("display") && e.contains("display-p3"), "{e}");
+    let e = film("white_balance = 3200");
+    assert!(
+        e.contains("film.white_balance") && e.contains("temperature"),
+        "{e}"
+    );
+    let e = film("white_balance = { temperature = 300 }");
+    assert!(e.contains("1000–40000 K"), "{e}");
+    let e = film("white_balance = { kelvin = 3200 }");
+    assert!(e.contains("film.white_balance"), "{e}");
+    let e = film("white_balance = \"D66\"");
+    assert!(e.contains("film.white_balance") && e.contains("D66"), "{e}");
+    // A scene's own spectrum is a white too.
+    let ok = format!(
+        "{CAMERA}[film]\nwhite_balance = \"warm\"\n[spectra]\nwarm = {{ blackbody = 2700 }}\n{light}"
+    );
+    load_str(&ok, Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap();
+}

@@ -17,7 +17,13 @@ fn write_then_read_gives_identical_channels_and_attributes() {
     let (film, _) = render(&scene, &RenderOptions::new(&scene)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("round.spectral.exr");
-    spectral_exr::write(&film, &path, &[("prismSeed", "7".into())]).unwrap();
+    spectral_exr::write(
+        &film,
+        &prism::film::ColourTransform::default(),
+        &path,
+        &[("prismSeed", "7".into())],
+    )
+    .unwrap();
     let img = spectral_exr::read(&path).unwrap();
     assert_eq!((img.width, img.height), (20, 12));
     assert_eq!(img.attributes["spectralLayoutVersion"], "1.0");

@@ -42,6 +42,20 @@ def main():
     write("cie_1931_2deg.csv", ["wavelength_nm", "x", "y", "z"],
           "CIE 1931 2 degree standard observer colour matching functions, 360-830 nm, 1 nm", rows)
 
+    # The other observers of `film.observer`, on the same 360-830 nm grid;
+    # the CIE 2015 (cone-fundamental based) functions start at 390 nm and
+    # are zero below it.
+    for key, name, label in [
+        ("CIE 1964 10 Degree Standard Observer", "cie_1964_10deg.csv", "CIE 1964 10 degree standard observer"),
+        ("CIE 2015 2 Degree Standard Observer", "cie_2015_2deg.csv", "CIE 2015 2 degree standard observer (CIE 170-2)"),
+        ("CIE 2015 10 Degree Standard Observer", "cie_2015_10deg.csv", "CIE 2015 10 degree standard observer (CIE 170-2)"),
+    ]:
+        other = colour.MSDS_CMFS[key]
+        lo = int(other.wavelengths[0])
+        rows = [(w, 0.0, 0.0, 0.0) for w in range(360, lo)]
+        rows += [(w, *other[w]) for w in range(lo, 831)]
+        write(name, ["wavelength_nm", "x", "y", "z"], f"{label} colour matching functions, 360-830 nm, 1 nm", rows)
+
     shape = colour.SpectralShape(300, 830, 1)
     for name, sd in [("d65", d_series(6500)), ("d50", d_series(5000))]:
         sd = sd.copy().align(shape)

@@ -2,14 +2,19 @@
 //! estimates) plus spectral buckets, each pixel with its own sample count so
 //! an interrupted render is still an unbiased image.
 
+pub mod colour;
+pub mod display;
 pub mod output;
 pub mod spectral_exr;
 
+pub use colour::{ColourSpace, ColourTransform};
+pub use display::{Display, DisplaySettings, Gamut};
 pub use output::Tonemap;
 
 use glam::{DVec3, Vec3};
 
-use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths};
+use crate::spectrum::cie::{ColourMatching, Observer};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// What the scene file says about the image: its size, the sampling
 /// defaults of a render (`RenderOptions::new` takes them), the spectral
@@ -28,6 +33,53 @@ pub struct FilmSettings {
     /// Exposure of the PNG in stops (the EXR stays radiometric).
     pub exposure: f32,
     pub tonemap: Tonemap,
+    /// The observer whose colour-matching functions the film integrates.
+    pub observer: Observer,
+    /// The film's XYZ → the EXRs' RGB (colour space, white balance).
+    pub colour: ColourTransform,
+    /// The film's XYZ → the display's linear RGB, for the PNG.
+    pub display_colour: ColourTransform,
+    pub display: Display,
+    /// Bits per PNG sample: 8 or 16.
+    pub png_bits: u8,
+    pub gamut: Gamut,
+}
+
+impl FilmSettings {
+    /// A film of `width` × `height` with every other setting at its default.
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            spp: 64,
+            seed: 0,
+            layout: SpectralLayout {
+                min: 380.0,
+                max: 780.0,
+                count: 40,
+            },
+            spectral_output: true,
+            exposure: 0.0,
+            tonemap: Tonemap::Clamp,
+            observer: Observer::Cie1931,
+            colour: ColourTransform::default(),
+            display_colour: ColourTransform::default(),
+            display: Display::Srgb,
+            png_bits: 8,
+            gamut: Gamut::Clip,
+        }
+    }
+
+    /// How the PNG is made.
+    pub fn display_settings(&self) -> DisplaySettings {
+        DisplaySettings {
+            display: self.display,
+            bits: self.png_bits,
+            gamut: self.gamut,
+            exposure: self.exposure,
+            tonemap: self.tonemap,
+        }
+    }
 }
 
 /// Equal-width wavelength buckets over [min, max] nm.
@@ -100,6 +152,7 @@ pub struct FilmTile {
     pub non_finite_splats: u64,
     film_width: u32,
     layout: SpectralLayout,
+    cmfs: &'static ColourMatching,
 }
 
 impl FilmTile {
@@ -124,6 +177,15 @@ impl FilmTile {
             non_finite_splats: 0,
             film_width,
             layout,
+            cmfs: Observer::Cie1931.cmfs(),
+        }
+    }
+
+    /// The same tile integrating XYZ with `observer`.
+    pub fn with_observer(self, observer: Observer) -> Self {
+        Self {
+            cmfs: observer.cmfs(),
+            ..self
         }
     }
 
@@ -140,7 +202,7 @@ impl FilmTile {
             return;
         }
         let i = y * self.film_width + x;
-        self.splat_xyz.push((i, cie::sampled_to_xyz(l, wl)));
+        self.splat_xyz.push((i, self.cmfs.sampled_to_xyz(l, wl)));
         let entries = self.layout.contributions(l, wl).map(|(b, v)| (i, b, v));
         self.splat_spectral.extend(entries);
     }
@@ -153,7 +215,7 @@ impl FilmTile {
             self.pixels[i].samples += 1;
             return;
         }
-        let xyz = cie::sampled_to_xyz(l, wl).as_dvec3();
+        let xyz = self.cmfs.sampled_to_xyz(l, wl).as_dvec3();
         let px = &mut self.pixels[i];
         px.xyz += xyz;
         px.y_squared += xyz.y * xyz.y;
@@ -227,11 +289,17 @@ impl Film {
         (p.xyz / p.samples as f64).as_vec3()
     }
 
-    /// Linear sRGB of every pixel, row-major from the top left.
+    /// Linear sRGB (CIE 1931 XYZ, D65) of every pixel, row-major from the
+    /// top left.
     pub fn linear_srgb(&self) -> Vec<Vec3> {
+        self.rgb(&ColourTransform::default())
+    }
+
+    /// RGB of every pixel by `transform`, row-major from the top left.
+    pub fn rgb(&self, transform: &ColourTransform) -> Vec<Vec3> {
         (0..self.height)
             .flat_map(|y| (0..self.width).map(move |x| (x, y)))
-            .map(|(x, y)| cie::xyz_to_linear_srgb(self.xyz(x, y)))
+            .map(|(x, y)| transform.rgb(self.xyz(x, y)))
             .collect()
     }
 

@@ -1,24 +1,31 @@
-//! Writing the film: linear sRGB OpenEXR (float) and sRGB-encoded 8-bit PNG.
-//! Files are written under a temporary name and renamed into place, so a
-//! reader never sees half a file.
+//! Writing the film: RGB OpenEXR (float, in the film's colour space,
+//! tagged with its chromaticities) and the display PNG (`display`). Files
+//! are written under a temporary name and renamed into place, so a reader
+//! never sees half a file.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use glam::Vec3;
 
-use super::Film;
-use crate::spectrum::cie::srgb_encode;
+use super::colour::{ColourSpace, ColourTransform};
+use super::display::{self, DisplaySettings};
+use super::{Film, FilmSettings};
 
-/// How linear radiance becomes display values in the PNG.
+/// The view transform of the PNG: how linear radiance becomes display
+/// values.
 #[derive(Clone, Copy, Debug, Default, serde::Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Tonemap {
-    /// Clip linear values to [0, 1] before sRGB encoding.
+    /// None: values above 1 are left to the gamut step (clipped or mapped).
     #[default]
     Clamp,
     /// x / (1 + x) per channel: keeps highlights, compresses everything.
     Reinhard,
+    /// An AgX-like curve: a logistic in stops per channel in an inset
+    /// space; highlights roll off and desaturate smoothly
+    /// ([`display::filmic`]).
+    Filmic,
 }
 
 /// Writes `path` through a temporary sibling and a rename.
@@ -41,65 +48,87 @@ fn temp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{stem}.partial-{}.{ext}", std::process::id()))
 }
 
-/// Linear sRGB radiance as a float32 RGB OpenEXR.
-pub fn write_exr(film: &Film, path: &Path) -> Result<()> {
-    write_rgb_exr(&film.linear_srgb(), film.width, film.height, path)
+/// The film's RGB (in `colour`'s space) as a float32 RGB OpenEXR tagged
+/// with the space's chromaticities.
+pub fn write_exr(film: &Film, colour: &ColourTransform, path: &Path) -> Result<()> {
+    write_rgb_exr_in(
+        &film.rgb(colour),
+        film.width,
+        film.height,
+        Some(colour.space),
+        path,
+    )
 }
 
 /// Row-major linear sRGB pixels as a float32 RGB OpenEXR.
 pub fn write_rgb_exr(rgb: &[Vec3], width: u32, height: u32, path: &Path) -> Result<()> {
-    let w = width as usize;
-    write_atomically(path, |tmp| {
-        exr::prelude::write_rgb_file(tmp, w, height as usize, |x, y| {
-            let c = rgb[y * w + x];
-            (c.x, c.y, c.z)
-        })
-        .with_context(|| format!("cannot write {}", tmp.display()))
-    })
+    write_rgb_exr_in(rgb, width, height, None, path)
 }
 
-/// Maps linear sRGB to display values in [0, 1] (before encoding).
-pub fn tonemap(c: Vec3, exposure: f32, op: Tonemap) -> Vec3 {
-    let c = (c * exposure.exp2()).max(Vec3::ZERO);
-    match op {
-        Tonemap::Clamp => c.min(Vec3::ONE),
-        Tonemap::Reinhard => c / (Vec3::ONE + c),
+/// OpenEXR's `chromaticities` attribute for a colour space.
+pub fn exr_chromaticities(space: ColourSpace) -> exr::meta::attribute::Chromaticities {
+    let c = space.chromaticities();
+    let v = |p: glam::DVec2| exr::math::Vec2(p.x as f32, p.y as f32);
+    exr::meta::attribute::Chromaticities {
+        red: v(c.red),
+        green: v(c.green),
+        blue: v(c.blue),
+        white: v(c.white),
     }
 }
 
-/// sRGB-encoded 8-bit PNG after exposure (stops) and tone mapping.
-pub fn write_png(film: &Film, path: &Path, exposure: f32, op: Tonemap) -> Result<()> {
-    write_rgb_png(
-        &film.linear_srgb(),
+/// Row-major RGB pixels as a float32 RGB OpenEXR, tagged with `space`'s
+/// chromaticities where given.
+pub fn write_rgb_exr_in(
+    rgb: &[Vec3],
+    width: u32,
+    height: u32,
+    space: Option<ColourSpace>,
+    path: &Path,
+) -> Result<()> {
+    use exr::prelude::*;
+    let (w, h) = (width as usize, height as usize);
+    let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let c = rgb[p.y() * w + p.x()];
+        (c.x, c.y, c.z)
+    });
+    let mut image = Image::from_channels((w, h), channels);
+    image.attributes.chromaticities = space.map(exr_chromaticities);
+    write_atomically(path, |tmp| {
+        image
+            .write()
+            .to_file(tmp)
+            .with_context(|| format!("cannot write {}", tmp.display()))
+    })
+}
+
+/// The film as the display PNG of `settings`.
+pub fn write_png(film: &Film, settings: &FilmSettings, path: &Path) -> Result<()> {
+    display::write_png(
+        &film.rgb(&settings.display_colour),
         film.width,
         film.height,
         path,
-        exposure,
-        op,
+        &settings.display_settings(),
     )
 }
 
-/// Row-major linear sRGB pixels as an sRGB-encoded 8-bit PNG.
+/// Row-major linear sRGB pixels as an sRGB PNG (8-bit, clipped) after
+/// `exposure` stops and `tonemap`.
 pub fn write_rgb_png(
     rgb: &[Vec3],
     width: u32,
     height: u32,
     path: &Path,
     exposure: f32,
-    op: Tonemap,
+    tonemap: Tonemap,
 ) -> Result<()> {
-    let bytes: Vec<u8> = rgb
-        .iter()
-        .copied()
-        .flat_map(|c| {
-            let t = tonemap(c, exposure, op);
-            [t.x, t.y, t.z].map(|v| (srgb_encode(v) * 255.0 + 0.5).clamp(0.0, 255.0) as u8)
-        })
-        .collect();
-    write_atomically(path, |tmp| {
-        image::save_buffer(tmp, &bytes, width, height, image::ColorType::Rgb8)
-            .with_context(|| format!("cannot write {}", tmp.display()))
-    })
+    let settings = DisplaySettings {
+        exposure,
+        tonemap,
+        ..DisplaySettings::default()
+    };
+    display::write_png(rgb, width, height, path, &settings)
 }
 
 /// Reads a linear RGB OpenEXR (the first layer's R, G, B).

@@ -2,7 +2,8 @@
 //! "An OpenEXR Layout for Spectral Images"): one float channel per spectral
 //! bucket named `S0.<centre>nm` with a comma as decimal separator (a dot
 //! separates EXR layers), the header attributes `spectralLayoutVersion` and
-//! `emissiveUnits`, and R, G, B channels as a preview any viewer shows.
+//! `emissiveUnits`, and R, G, B channels as a preview any viewer shows (in
+//! the film's colour space, tagged by `chromaticities`).
 //!
 //! Values are the mean spectral radiance over each bucket, in the unit of
 //! the scene's emission per nm: with emission in W·m⁻²·sr⁻¹·nm⁻¹ a channel
@@ -15,7 +16,8 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 
-use super::output::write_atomically;
+use super::colour::{ColourSpace, ColourTransform};
+use super::output::{exr_chromaticities, write_atomically};
 use super::Film;
 
 /// A spectral image as read back from a file.
@@ -87,9 +89,11 @@ pub fn parse_channel_name(name: &str) -> Option<f64> {
 pub const SAMPLE_COUNT: &str = "sampleCount";
 
 impl SpectralImage {
-    /// The film as a spectral image: bucket means, the RGB preview (linear
-    /// sRGB), per-pixel sample counts, and the given text attributes.
-    pub fn from_film(film: &Film, attributes: &[(&str, String)]) -> Self {
+    /// The film as a spectral image: bucket means, the RGB preview (in
+    /// `colour`'s space, named by the `prismColourSpace` attribute and the
+    /// chromaticities), per-pixel sample counts, and the given text
+    /// attributes.
+    pub fn from_film(film: &Film, colour: &ColourTransform, attributes: &[(&str, String)]) -> Self {
         let (w, h) = (film.width as usize, film.height as usize);
         let n = film.layout.count as usize;
         let mut spectral = vec![vec![0.0f32; w * h]; n];
@@ -103,7 +107,7 @@ impl SpectralImage {
                 counts[i] = film.sums(x, y).samples as f32;
             }
         }
-        let rgb = film.linear_srgb();
+        let rgb = film.rgb(colour);
         let mut other = BTreeMap::new();
         for (k, name) in ["R", "G", "B"].iter().enumerate() {
             other.insert(name.to_string(), rgb.iter().map(|c| c[k]).collect());
@@ -115,6 +119,10 @@ impl SpectralImage {
         let mut attrs = BTreeMap::new();
         attrs.insert("spectralLayoutVersion".to_string(), "1.0".to_string());
         attrs.insert("emissiveUnits".to_string(), "W.m^-2.sr^-1".to_string());
+        attrs.insert(
+            ATTR_COLOUR_SPACE.to_string(),
+            colour.space.name().to_string(),
+        );
         for (k, v) in attributes {
             attrs.insert(k.to_string(), v.clone());
         }
@@ -130,9 +138,18 @@ impl SpectralImage {
     }
 }
 
+/// The colour space of the R, G, B channels (a `film.colour_space` name;
+/// linear sRGB where absent).
+pub const ATTR_COLOUR_SPACE: &str = "prismColourSpace";
+
 /// Writes the film's spectral buckets, RGB preview and sample counts.
-pub fn write(film: &Film, path: &Path, attributes: &[(&str, String)]) -> Result<()> {
-    write_image(&SpectralImage::from_film(film, attributes), path)
+pub fn write(
+    film: &Film,
+    colour: &ColourTransform,
+    path: &Path,
+    attributes: &[(&str, String)],
+) -> Result<()> {
+    write_image(&SpectralImage::from_film(film, colour, attributes), path)
 }
 
 /// Writes a spectral image as float32 channels with its text attributes.
@@ -170,7 +187,13 @@ pub fn write_image(img: &SpectralImage, path: &Path) -> Result<()> {
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(channels.into_iter().collect()),
     );
-    let image = Image::from_layer(layer);
+    let mut image = Image::from_layer(layer);
+    image.attributes.chromaticities = img
+        .attributes
+        .get(ATTR_COLOUR_SPACE)
+        .and_then(|name| ColourSpace::from_name(name))
+        .or(Some(ColourSpace::SrgbLinear))
+        .map(exr_chromaticities);
     write_atomically(path, |tmp| {
         image
             .write()

@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 
 use super::{check_writable, output_stem, suffixed};
-use crate::film::output::{write_rgb_exr, write_rgb_png};
-use crate::film::{spectral_exr, Tonemap};
+use crate::film::output::write_rgb_exr_in;
+use crate::film::spectral_exr::ATTR_COLOUR_SPACE;
+use crate::film::{display, spectral_exr, ColourSpace};
 use crate::merge::{merge, ATTR_SAMPLES};
 
 pub struct MergeJob {
@@ -49,8 +50,17 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
         .collect();
     let (w, h) = (merged.width as u32, merged.height as u32);
     let (exr, png) = (suffixed(&stem, "exr"), suffixed(&stem, "png"));
-    write_rgb_exr(&rgb, w, h, &exr)?;
-    write_rgb_png(&rgb, w, h, &png, job.exposure, Tonemap::Clamp)?;
+    let space = match merged.attributes.get(ATTR_COLOUR_SPACE) {
+        Some(name) => Some(
+            ColourSpace::from_name(name)
+                .ok_or_else(|| anyhow::anyhow!("unknown `{ATTR_COLOUR_SPACE}` {name:?}"))?,
+        ),
+        None => Some(ColourSpace::SrgbLinear),
+    };
+    write_rgb_exr_in(&rgb, w, h, space, &exr)?;
+    let (to_display, settings) = display::from_attributes(&merged.attributes, job.exposure)?;
+    let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
+    display::write_png(&display_rgb, w, h, &png, &settings)?;
     eprintln!(
         "merged {} parts (samples {}): wrote {}, {} and {}",
         job.parts.len(),

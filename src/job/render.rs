@@ -10,6 +10,9 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 
 use super::{check_writable, human_bytes, output_stem, suffixed};
+use crate::film::display::{
+    matrix_text, rgb_to_display, ATTR_DISPLAY, ATTR_GAMUT, ATTR_PNG_BITS, ATTR_RGB_TO_DISPLAY,
+};
 use crate::film::{output, spectral_exr};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
@@ -141,8 +144,8 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
     let exr = suffixed(&stem, "exr");
     let png = suffixed(&stem, "png");
-    output::write_exr(&result, &exr)?;
-    output::write_png(&result, &png, film.exposure, film.tonemap)?;
+    output::write_exr(&result, &film.colour, &exr)?;
+    output::write_png(&result, film, &png)?;
     eprintln!("wrote {} and {}", exr.display(), png.display());
     if film.spectral_output {
         let spectral = suffixed(&stem, "spectral.exr");
@@ -155,11 +158,17 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
             (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
             ("prismIntegrator", scene.integrator.name().to_string()),
+            ("prismObserver", film.observer.name().to_string()),
+            // How `prism merge` makes the PNG from the R, G, B channels.
+            (ATTR_DISPLAY, film.display.name().to_string()),
+            (ATTR_RGB_TO_DISPLAY, matrix_text(rgb_to_display(film))),
+            (ATTR_GAMUT, format!("{:?}", film.gamut).to_lowercase()),
+            (ATTR_PNG_BITS, film.png_bits.to_string()),
         ];
         if stats.interrupted {
             extra.push(("prismInterrupted", "true".into()));
         }
-        spectral_exr::write(&result, &spectral, &extra)?;
+        spectral_exr::write(&result, &film.colour, &spectral, &extra)?;
         eprintln!("wrote {}", spectral.display());
     }
     Ok(RenderOutcome {

@@ -7,8 +7,9 @@ use std::path::PathBuf;
 use serde::Deserialize;
 
 use super::spectrum_spec::{IorSpec, SpectrumSpec};
-use crate::film::Tonemap;
+use crate::film::{ColourSpace, Display, Gamut, Tonemap};
 use crate::integrator::IntegratorSpec;
+use crate::spectrum::cie::Observer;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -174,6 +175,18 @@ pub struct FilmSpec {
     pub spectral_buckets: u32,
     /// Write the spectral OpenEXR (NAME.spectral.exr) next to the RGB files.
     pub spectral: bool,
+    /// RGB space of the EXRs.
+    pub colour_space: ColourSpace,
+    /// Colour-matching functions the film integrates with.
+    pub observer: Observer,
+    /// The illuminant that renders neutral: a name, or { temperature = K }.
+    pub white_balance: Option<toml::Value>,
+    /// The display the PNG is for.
+    pub display: Display,
+    /// Bits per PNG sample, 8 or 16.
+    pub png_bits: u8,
+    /// Out-of-gamut display colours: "clip" or "map".
+    pub gamut: Gamut,
 }
 
 impl Default for FilmSpec {
@@ -188,6 +201,12 @@ impl Default for FilmSpec {
             spectral_range: [380.0, 780.0],
             spectral_buckets: 40,
             spectral: true,
+            colour_space: ColourSpace::SrgbLinear,
+            observer: Observer::Cie1931,
+            white_balance: None,
+            display: Display::Srgb,
+            png_bits: 8,
+            gamut: Gamut::Clip,
         }
     }
 }

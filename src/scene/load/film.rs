@@ -1,11 +1,14 @@
 //! The `[film]` table: image size, sampling defaults, spectral buckets and
 //! PNG settings; and the `[integrator]` table.
 
+use super::spectra::Role;
 use super::Loader;
-use crate::film::{FilmSettings, SpectralLayout};
+use crate::film::{ColourTransform, FilmSettings, SpectralLayout};
 use crate::integrator::Integrator;
 use crate::scene::format::SceneFile;
+use crate::scene::spectrum_spec::SpectrumSpec;
 use crate::scene::SceneError;
+use crate::spectrum::Spectrum;
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 
 /// Largest image side accepted.
@@ -28,6 +31,16 @@ impl Loader {
         if !f.exposure.is_finite() {
             return Err(self.error("`film.exposure` must be a finite number of stops"));
         }
+        if f.png_bits != 8 && f.png_bits != 16 {
+            return Err(self.error(format!(
+                "`film.png_bits` must be 8 or 16, found {}",
+                f.png_bits
+            )));
+        }
+        let white_balance = self.white_balance(file)?;
+        let colour = ColourTransform::new(f.colour_space, f.observer, white_balance.as_ref());
+        let display_colour =
+            ColourTransform::new(f.display.space(), f.observer, white_balance.as_ref());
         check_film_size(width, height, f.spectral_buckets).map_err(|e| self.error(e))?;
         check_spectral_layout(f.spectral_range, f.spectral_buckets)
             .map_err(|e| self.error(format!("`film.{e}")))?;
@@ -44,7 +57,50 @@ impl Loader {
             spectral_output: f.spectral,
             exposure: f.exposure,
             tonemap: f.tonemap,
+            observer: f.observer,
+            colour,
+            display_colour,
+            display: f.display,
+            png_bits: f.png_bits,
+            gamut: f.gamut,
         })
+    }
+
+    /// `film.white_balance`: the spectrum of the illuminant that renders
+    /// neutral (a name, as emission spectra take them, or a Planckian
+    /// temperature).
+    fn white_balance(&self, file: &SceneFile) -> Result<Option<Spectrum>, SceneError> {
+        const FORMS: &str = "`film.white_balance` takes an illuminant name such as \"A\" \
+            (or a spectrum of [spectra]) or a table { temperature = 3200 } (kelvin, Planckian)";
+        let spectrum = match &file.film.white_balance {
+            None => return Ok(None),
+            Some(toml::Value::String(name)) => self.spectrum(
+                &SpectrumSpec::Named(name.clone()),
+                Role::Emission,
+                file,
+                "film.white_balance",
+            )?,
+            Some(toml::Value::Table(t)) if t.len() == 1 && t.contains_key("temperature") => {
+                let kelvin = match &t["temperature"] {
+                    toml::Value::Float(k) => *k as f32,
+                    toml::Value::Integer(k) => *k as f32,
+                    _ => return Err(self.error(FORMS)),
+                };
+                if !(1000.0..=40_000.0).contains(&kelvin) {
+                    return Err(self.error(format!(
+                        "`film.white_balance.temperature` = {kelvin} K is outside 1000–40000 K"
+                    )));
+                }
+                Spectrum::Blackbody { kelvin, scale: 1.0 }
+            }
+            Some(_) => return Err(self.error(FORMS)),
+        };
+        let y = file.film.observer.cmfs().spectrum_to_xyz(&spectrum).y;
+        if !(y > 0.0 && y.is_finite()) {
+            return Err(self
+                .error("`film.white_balance`: the illuminant has no visible light to balance to"));
+        }
+        Ok(Some(spectrum))
     }
 
     /// The integrator and its parameters. `film.max_depth`, where the

@@ -17,7 +17,7 @@ use std::rc::Rc;
 use super::format::SceneFile;
 use super::import::{Asset, TextureCache};
 use super::Scene;
-use crate::film::Tonemap;
+use crate::film::{Gamut, Tonemap};
 use crate::integrator::{IntegratorKind, Strategy};
 use crate::material::Material;
 use crate::spectrum::Spectrum;
@@ -43,6 +43,7 @@ pub struct Overrides {
     pub no_spectral: bool,
     pub exposure: Option<f32>,
     pub tonemap: Option<Tonemap>,
+    pub gamut: Option<Gamut>,
     pub strategy: Option<Strategy>,
     pub integrator: Option<IntegratorKind>,
 }
@@ -73,6 +74,9 @@ impl Overrides {
         }
         if let Some(t) = self.tonemap {
             file.film.tonemap = t;
+        }
+        if let Some(g) = self.gamut {
+            file.film.gamut = g;
         }
         if let Some(kind) = self.integrator {
             file.integrator.kind = kind;
