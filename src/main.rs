@@ -83,6 +83,18 @@ enum Command {
         /// Do not write the spectral OpenEXR (NAME.spectral.exr).
         #[arg(long)]
         no_spectral: bool,
+        /// Stop when this much time is spent (90s, 5m, 1.5h; plain numbers
+        /// are seconds) and write what exists: the pass under way finishes,
+        /// so every pixel has the same samples (at most --spp).
+        #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+        time: Option<std::time::Duration>,
+        /// Stop when the relative MSE estimated from the pixels' variances
+        /// falls below this (e.g. 0.01), at most --spp samples.
+        #[arg(long, value_name = "RELMSE")]
+        target_error: Option<f64>,
+        /// Seconds between progress lines when stderr is not a terminal.
+        #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
+        log_every: f64,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -199,6 +211,29 @@ enum StrategyArg {
     Bsdf,
 }
 
+/// "90s", "5m", "1.5h" or plain seconds.
+fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
+    let s = s.trim();
+    let (number, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
+        Some(i) => s.split_at(i),
+        None => (s, "s"),
+    };
+    let seconds = match unit {
+        "s" => 1.0,
+        "m" | "min" => 60.0,
+        "h" => 3600.0,
+        _ => return Err(format!("unknown unit {unit:?}: use s, m or h")),
+    };
+    let v: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a duration such as 90s, 5m or 1.5h"))?;
+    if !(v > 0.0 && v.is_finite()) {
+        return Err("the duration must be positive".into());
+    }
+    Ok(std::time::Duration::from_secs_f64(v * seconds))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
@@ -230,6 +265,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
             spectral_buckets,
             no_spectral,
             quiet,
+            time,
+            target_error,
+            log_every,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -276,6 +314,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 seed,
                 progress: !quiet,
                 cancel,
+                time_budget: time,
+                target_error,
+                log_every: std::time::Duration::from_secs_f64(log_every.max(0.1)),
             };
             let outcome = render_files(&job)?;
             Ok(if outcome.interrupted {

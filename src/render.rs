@@ -1,7 +1,11 @@
 //! Drives the integrator over the image: tiles in parallel (rayon), in
-//! passes of a few samples per pixel so that a progress bar can tell the
-//! time left and an interruption leaves every pixel with whole samples.
+//! progressive passes over the whole image, each adding samples to every
+//! pixel (1, 1, 2, 4, … up to a sixteenth of the samples, at most 16). A
+//! render that stops early (Ctrl-C, a time budget, an error target)
+//! finishes the pass under way, so every pixel has the same number of
+//! samples: a complete, evenly converged picture.
 
+use std::io::IsTerminal;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -33,8 +37,16 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Show a progress bar on the terminal.
     pub progress: bool,
-    /// Set to stop early: finished samples are kept.
+    /// Set to stop early: the pass under way finishes, and is kept.
     pub cancel: Option<Arc<AtomicBool>>,
+    /// Stop after the pass during which this much time has passed.
+    pub time_budget: Option<Duration>,
+    /// Stop after the first pass whose estimated relative MSE
+    /// ([`Film::estimated_rel_mse`]) is below this.
+    pub target_error: Option<f64>,
+    /// Where no progress bar can be drawn (stderr is not a terminal), print
+    /// a progress line this often.
+    pub log_every: Duration,
 }
 
 impl RenderOptions {
@@ -48,6 +60,9 @@ impl RenderOptions {
             threads: None,
             progress: false,
             cancel: None,
+            time_budget: None,
+            target_error: None,
+            log_every: Duration::from_secs(5),
         }
     }
 
@@ -71,8 +86,30 @@ pub struct RenderStats {
     /// Media not entered because a path's IOR stack was full.
     pub stack_overflows: u64,
     pub elapsed: Duration,
-    /// True when the render stopped before every sample was taken.
+    /// True when a cancel (Ctrl-C) stopped the render before every sample
+    /// was taken.
     pub interrupted: bool,
+    /// Why the render ended.
+    pub stop: Stop,
+    /// Samples every pixel of the region has (all have the same).
+    pub spp: u32,
+    /// The film's estimated relative MSE at the end (None for integrators
+    /// that splat, whose per-pixel variances say nothing).
+    pub estimated_rel_mse: Option<f64>,
+}
+
+/// Why a render ended.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Stop {
+    /// Every sample was taken.
+    #[default]
+    Complete,
+    /// Cancelled (Ctrl-C).
+    Interrupted,
+    /// The time budget was spent.
+    TimeBudget,
+    /// The estimated error fell below the target.
+    ErrorTarget,
 }
 
 /// Why a render cannot run as asked.
@@ -84,6 +121,10 @@ pub enum RenderError {
         "the {0} integrator adds light to every pixel: it renders the whole film, not a region"
     )]
     SplatRegion(&'static str),
+    #[error(
+        "an error target needs per-pixel variances, and the {0} integrator's splats make them meaningless: use a sample count or a time budget"
+    )]
+    SplatTarget(&'static str),
 }
 
 /// Renders the scene. Deterministic: the result depends only on the scene,
@@ -92,6 +133,9 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(Film, RenderSta
     let f = &scene.film;
     if scene.integrator.splats() && options.region != [0, 0, f.width, f.height] {
         return Err(RenderError::SplatRegion(scene.integrator.name()));
+    }
+    if scene.integrator.splats() && options.target_error.is_some() {
+        return Err(RenderError::SplatTarget(scene.integrator.name()));
     }
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
@@ -181,85 +225,166 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let rays = AtomicU64::new(0);
     let non_finite = AtomicU64::new(0);
     let overflows = AtomicU64::new(0);
+    let done = AtomicU64::new(0);
     let cancelled = || {
         options
             .cancel
             .as_ref()
             .is_some_and(|c| c.load(Ordering::Relaxed))
     };
-    // A splatting integrator's pixels are normalised by their own sample
-    // counts, so every pixel must have the same: a pass it starts, it ends.
-    let whole_passes = scene.integrator.splats();
-    // Passes of a sixteenth of the samples (at most 16 each) keep the progress
-    // bar moving and bound how much work an interruption waits for. An
-    // integrator that prepares each sample index (photons) goes one at a time.
-    let pass = if scene.integrator.prepares() {
+    let out_of_time = || options.time_budget.is_some_and(|t| start.elapsed() >= t);
+    let cap = if scene.integrator.prepares() || options.time_budget.is_some() {
+        // Photons are prepared per sample index; a time budget stops soonest
+        // after a pass of one sample.
         1
     } else {
         spp.div_ceil(16).clamp(1, 16)
     };
+    let logging = options.progress && !std::io::stderr().is_terminal();
+    let (mut passes, mut rel_mse, mut stop) = (0u32, None, Stop::Complete);
     let mut first = samples.start;
-    while first < samples.end && !cancelled() {
-        let range = first..(first + pass).min(samples.end);
-        let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
-        rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
-        overflows.fetch_add(prepare_counters.stack_overflows, Ordering::Relaxed);
-        for batch in tiles.chunks(TILES_PER_BATCH) {
-            let results: Vec<FilmTile> = batch
-                .par_iter()
-                .filter_map(|&(x0, y0, w, h)| {
-                    if cancelled() && !whole_passes {
-                        return None;
-                    }
-                    let mut tile =
-                        FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
-                    let mut counters = PathCounters::default();
-                    let mut bad = 0;
-                    for y in y0..y0 + h {
-                        for x in x0..x0 + w {
-                            for index in range.clone() {
-                                let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
-                                let s = scene.integrator.sample(
-                                    scene,
-                                    x,
-                                    y,
-                                    &mut sampler,
-                                    &prepared,
-                                    &mut tile,
-                                    &mut counters,
-                                );
-                                if s.l.is_finite() {
-                                    tile.add_sample(x, y, s.l, &s.wl);
-                                } else {
-                                    bad += 1;
-                                    tile.add_empty_sample(x, y);
+    let finished = AtomicBool::new(false);
+    std::thread::scope(|threads| {
+        if logging {
+            threads.spawn(|| log_progress(&done, total, start, options.log_every, &finished));
+        }
+        while first < samples.end {
+            let range = first..(first + pass_size(passes, cap)).min(samples.end);
+            let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
+            rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
+            overflows.fetch_add(prepare_counters.stack_overflows, Ordering::Relaxed);
+            for batch in tiles.chunks(TILES_PER_BATCH) {
+                let results: Vec<FilmTile> = batch
+                    .par_iter()
+                    .map(|&(x0, y0, w, h)| {
+                        let mut tile =
+                            FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
+                        let mut counters = PathCounters::default();
+                        let mut bad = 0;
+                        for y in y0..y0 + h {
+                            for x in x0..x0 + w {
+                                for index in range.clone() {
+                                    let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
+                                    let s = scene.integrator.sample(
+                                        scene,
+                                        x,
+                                        y,
+                                        &mut sampler,
+                                        &prepared,
+                                        &mut tile,
+                                        &mut counters,
+                                    );
+                                    if s.l.is_finite() {
+                                        tile.add_sample(x, y, s.l, &s.wl);
+                                    } else {
+                                        bad += 1;
+                                        tile.add_empty_sample(x, y);
+                                    }
                                 }
                             }
                         }
-                    }
-                    bad += tile.non_finite_splats;
-                    rays.fetch_add(counters.rays, Ordering::Relaxed);
-                    overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
-                    non_finite.fetch_add(bad, Ordering::Relaxed);
-                    bar.inc((w * h) as u64 * range.len() as u64);
-                    Some(tile)
-                })
-                .collect();
-            for tile in &results {
-                film.add_tile(tile);
+                        bad += tile.non_finite_splats;
+                        rays.fetch_add(counters.rays, Ordering::Relaxed);
+                        overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
+                        non_finite.fetch_add(bad, Ordering::Relaxed);
+                        let n = (w * h) as u64 * range.len() as u64;
+                        bar.inc(n);
+                        done.fetch_add(n, Ordering::Relaxed);
+                        tile
+                    })
+                    .collect();
+                for tile in &results {
+                    film.add_tile(tile);
+                }
+            }
+            first = range.end;
+            passes += 1;
+            if !scene.integrator.splats() {
+                rel_mse = Some(film.estimated_rel_mse([rx0, ry0, rx1, ry1]));
+            }
+            let reached = options
+                .target_error
+                .is_some_and(|t| rel_mse.is_some_and(|e| e <= t));
+            if first < samples.end {
+                stop = if cancelled() {
+                    Stop::Interrupted
+                } else if out_of_time() {
+                    Stop::TimeBudget
+                } else if reached {
+                    Stop::ErrorTarget
+                } else {
+                    continue;
+                };
+                break;
             }
         }
-        first = range.end;
-    }
+        finished.store(true, Ordering::Relaxed);
+    });
     bar.finish_and_clear();
-    let samples = film.total_samples();
+    let taken = film.total_samples();
     let stats = RenderStats {
-        samples,
+        samples: taken,
         rays: rays.into_inner(),
         non_finite: non_finite.into_inner(),
         stack_overflows: overflows.into_inner(),
         elapsed: start.elapsed(),
-        interrupted: samples < total,
+        interrupted: stop == Stop::Interrupted,
+        stop,
+        spp: first - samples.start,
+        estimated_rel_mse: rel_mse,
     };
     (film, stats)
+}
+
+/// Samples per pixel of pass `k`: 1, 1, 2, 4, 8, … up to `cap`. The first
+/// passes are quick, so a render stopped early soon has a complete image.
+fn pass_size(k: u32, cap: u32) -> u32 {
+    let doubling = if k == 0 { 1 } else { 1u32 << (k - 1).min(16) };
+    doubling.clamp(1, cap)
+}
+
+/// A progress line every `every` until `finished`: for logs, where no bar
+/// can be drawn.
+fn log_progress(
+    done: &AtomicU64,
+    total: u64,
+    start: Instant,
+    every: Duration,
+    finished: &AtomicBool,
+) {
+    let mut next = every;
+    while !finished.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(50).min(every));
+        let elapsed = start.elapsed();
+        if elapsed < next {
+            continue;
+        }
+        next += every;
+        let d = done.load(Ordering::Relaxed);
+        let rate = d as f64 / elapsed.as_secs_f64();
+        let eta = if d > 0 {
+            format!("{:.0} s", (total - d.min(total)) as f64 / rate)
+        } else {
+            "unknown".into()
+        };
+        eprintln!(
+            "progress: {:.1}% ({d} of {total} samples), {:.2} M samples/s, {:.0} s elapsed, ETA {eta}",
+            100.0 * d as f64 / total.max(1) as f64,
+            rate / 1e6,
+            elapsed.as_secs_f64(),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passes_start_small_and_grow_to_the_cap() {
+        let sizes: Vec<u32> = (0..8).map(|k| pass_size(k, 16)).collect();
+        assert_eq!(sizes, [1, 1, 2, 4, 8, 16, 16, 16]);
+        assert_eq!((0..4).map(|k| pass_size(k, 1)).collect::<Vec<_>>(), [1; 4]);
+        assert_eq!(pass_size(40, 4), 4);
+    }
 }

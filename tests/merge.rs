@@ -286,3 +286,19 @@ fn merged_parts_keep_their_colour_space_and_display() {
         assert_eq!(exr.attributes["prismColourSpace"], "acescg");
     }
 }
+
+#[test]
+fn a_merge_that_leaves_pixels_uncovered_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = render(dir.path(), "left", &["--tile", "0,0,20,24", "--spp", "2"]);
+    let out = prism(&[
+        "merge",
+        part.to_str().unwrap(),
+        "-o",
+        dir.path().join("m").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("480 of 960 pixels are in no part"), "{err}");
+    assert!(err.contains("merged 1 part ("), "{err}");
+}

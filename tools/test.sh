@@ -7,10 +7,11 @@ cd "$(dirname "$0")/.."
 
 # The property-based fuzzers (tests/fuzz.rs) draw a few hundred cases each;
 # a fixed seed makes a CI run reproducible. Fresh seeds and more cases:
-# PROPTEST_CASES=100000 cargo test --test fuzz
+# PROPTEST_CASES=100000 cargo test --release --test fuzz
 export PROPTEST_RNG_SEED="${PROPTEST_RNG_SEED:-20261122}"
-cargo test
-# The colour-science checks run the release binary.
+# Optimised (Monte Carlo tests need the speed), and in the release profile
+# so that the binary the colour-science checks run is built once with it.
+cargo test --release
 cargo build --release
 
 venv=tools/.venv

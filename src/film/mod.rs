@@ -327,6 +327,22 @@ impl Film {
         (mean, var / n)
     }
 
+    /// Estimated relative MSE of the region [x0, x1) × [y0, y1): the mean
+    /// over its pixels of the variance of their mean luminance (from the
+    /// samples' spread) over (mean² + 0.01), the ε of `prism bench`'s
+    /// relMSE. Pixels with fewer than 2 samples count as infinite error.
+    pub fn estimated_rel_mse(&self, region: [u32; 4]) -> f64 {
+        let [x0, y0, x1, y1] = region;
+        let mut sum = 0.0;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (m, var) = self.luminance_and_variance(x, y);
+                sum += var / (m * m + crate::bench::REL_MSE_EPSILON);
+            }
+        }
+        sum / ((x1 - x0) as f64 * (y1 - y0) as f64).max(1.0)
+    }
+
     /// Fewest samples any pixel has.
     pub fn min_samples(&self) -> u64 {
         self.pixels.iter().map(|p| p.samples).min().unwrap_or(0)

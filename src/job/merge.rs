@@ -61,9 +61,20 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
     let (to_display, settings) = display::from_attributes(&merged.attributes, job.exposure)?;
     let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
     display::write_png(&display_rgb, w, h, &png, &settings)?;
+    let uncovered = merged.other[spectral_exr::SAMPLE_COUNT]
+        .iter()
+        .filter(|&&c| c == 0.0)
+        .count();
+    if uncovered > 0 {
+        eprintln!(
+            "warning: {uncovered} of {} pixels are in no part: they are black",
+            merged.width * merged.height
+        );
+    }
     eprintln!(
-        "merged {} parts (samples {}): wrote {}, {} and {}",
+        "merged {} part{} (samples {}): wrote {}, {} and {}",
         job.parts.len(),
+        if job.parts.len() == 1 { "" } else { "s" },
         merged.attributes[ATTR_SAMPLES],
         spectral.display(),
         exr.display(),

@@ -5,7 +5,7 @@ use std::ops::Range;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
 
@@ -17,7 +17,7 @@ use crate::film::{output, spectral_exr};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
 use crate::merge::{scene_hash, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
-use crate::render::{render, RenderOptions};
+use crate::render::{render, RenderOptions, Stop};
 use crate::scene::{self, Overrides};
 
 pub struct RenderJob {
@@ -37,6 +37,12 @@ pub struct RenderJob {
     pub progress: bool,
     /// Set (by a signal handler) to stop early and write what exists.
     pub cancel: Arc<AtomicBool>,
+    /// Stop when this much time is spent (`--time`).
+    pub time_budget: Option<Duration>,
+    /// Stop when the estimated relative MSE falls below this (`--target-error`).
+    pub target_error: Option<f64>,
+    /// Progress line interval where stderr is not a terminal.
+    pub log_every: Duration,
 }
 
 /// How a render job ended (errors aside).
@@ -92,6 +98,14 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     options.threads = job.threads;
     options.progress = job.progress;
     options.cancel = Some(job.cancel.clone());
+    options.time_budget = job.time_budget;
+    options.target_error = job.target_error;
+    options.log_every = job.log_every;
+    if let Some(t) = job.target_error {
+        if !(t > 0.0 && t.is_finite()) {
+            bail!("--target-error must be a positive relative MSE, such as 0.01");
+        }
+    }
 
     let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
@@ -119,11 +133,16 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     let (result, stats) = render(&scene, &options)?;
     let secs = stats.elapsed.as_secs_f64();
     eprintln!(
-        "rendered {} samples in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}",
+        "rendered {} samples ({} per pixel) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
         stats.samples,
+        stats.spp,
         secs,
         stats.samples as f64 / secs / 1e6,
         stats.rays as f64 / secs / 1e6,
+        match stats.estimated_rel_mse {
+            Some(e) => format!(", estimated relMSE {e:.2e}"),
+            None => String::new(),
+        },
         if stats.non_finite > 0 {
             format!(", {} non-finite samples dropped", stats.non_finite)
         } else {
@@ -136,11 +155,20 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             stats.stack_overflows,
         );
     }
-    if stats.interrupted {
-        eprintln!(
-            "interrupted: every pixel has at least {} samples",
-            result.min_samples()
-        );
+    match stats.stop {
+        Stop::Complete => {}
+        Stop::Interrupted => eprintln!(
+            "interrupted after the pass under way: every pixel has {} samples",
+            stats.spp
+        ),
+        Stop::TimeBudget => eprintln!(
+            "the time budget is spent: every pixel has {} samples",
+            stats.spp
+        ),
+        Stop::ErrorTarget => eprintln!(
+            "the estimated relMSE is below the target: every pixel has {} samples",
+            stats.spp
+        ),
     }
     let exr = suffixed(&stem, "exr");
     let png = suffixed(&stem, "png");
@@ -165,7 +193,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             (ATTR_GAMUT, format!("{:?}", film.gamut).to_lowercase()),
             (ATTR_PNG_BITS, film.png_bits.to_string()),
         ];
-        if stats.interrupted {
+        if stats.stop != Stop::Complete {
             extra.push(("prismInterrupted", "true".into()));
         }
         spectral_exr::write(&result, &film.colour, &spectral, &extra)?;
