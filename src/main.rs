@@ -95,6 +95,10 @@ enum Command {
         /// Seconds between progress lines when stderr is not a terminal.
         #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
         log_every: f64,
+        /// Rewrite NAME.png (atomically) this often while rendering, after
+        /// the pass under way (10s, 1m; plain numbers are seconds).
+        #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+        preview_every: Option<std::time::Duration>,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -268,6 +272,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             time,
             target_error,
             log_every,
+            preview_every,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -317,6 +322,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 time_budget: time,
                 target_error,
                 log_every: std::time::Duration::from_secs_f64(log_every.max(0.1)),
+                preview_every,
             };
             let outcome = render_files(&job)?;
             Ok(if outcome.interrupted {

@@ -15,11 +15,15 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use crate::film::{Film, FilmTile};
+use crate::integrator::aov::Aovs;
 use crate::integrator::PathCounters;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 
 const TILE_SIZE: u32 = 16;
+
+/// Mixed into the seed of the AOVs' samplers.
+const AOV_SEED: u64 = 0xa0f5_3c1d_9e77_b4a1;
 
 /// One render of a loaded scene: which samples, where, on how many threads.
 /// `RenderOptions::new` takes the scene file's defaults; a caller changes
@@ -47,6 +51,19 @@ pub struct RenderOptions {
     /// Where no progress bar can be drawn (stderr is not a terminal), print
     /// a progress line this often.
     pub log_every: Duration,
+    /// Called with the film after every pass (a preview writer).
+    pub after_pass: Option<PassHook>,
+}
+
+/// A function the render calls with the film after each pass: every pixel
+/// then has the same samples, so the film is a complete picture.
+#[derive(Clone)]
+pub struct PassHook(pub Arc<dyn Fn(&Film) + Send + Sync>);
+
+impl std::fmt::Debug for PassHook {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PassHook")
+    }
 }
 
 impl RenderOptions {
@@ -63,6 +80,7 @@ impl RenderOptions {
             time_budget: None,
             target_error: None,
             log_every: Duration::from_secs(5),
+            after_pass: None,
         }
     }
 
@@ -196,6 +214,10 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let (rx1, ry1) = (rx1.min(f.width), ry1.min(f.height));
     let layout = f.layout;
     let mut film = Film::new(f.width, f.height, layout);
+    let aovs = f.aovs.traced().then(|| Aovs::new(f.observer));
+    if aovs.is_some() {
+        film = film.with_aovs();
+    }
     let tiles: Vec<(u32, u32, u32, u32)> = (ry0..ry1)
         .step_by(TILE_SIZE as usize)
         .flat_map(|y| (rx0..rx1).step_by(TILE_SIZE as usize).map(move |x| (x, y)))
@@ -259,6 +281,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                     .map(|&(x0, y0, w, h)| {
                         let mut tile =
                             FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
+                        if aovs.is_some() {
+                            tile = tile.with_aovs();
+                        }
                         let mut counters = PathCounters::default();
                         let mut bad = 0;
                         for y in y0..y0 + h {
@@ -280,6 +305,24 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                                         bad += 1;
                                         tile.add_empty_sample(x, y);
                                     }
+                                    if let Some(aovs) = &aovs {
+                                        // A stream of its own: the image is
+                                        // the same with or without AOVs.
+                                        let mut s = Sampler::for_sample(
+                                            seed ^ AOV_SEED,
+                                            x,
+                                            y,
+                                            index as u64,
+                                        );
+                                        let [dx, dy, _, _] = s.next_4d();
+                                        let a = aovs.first_hit(
+                                            scene,
+                                            x as f32 + dx,
+                                            y as f32 + dy,
+                                            &mut s,
+                                        );
+                                        tile.add_aov(x, y, &a);
+                                    }
                                 }
                             }
                         }
@@ -299,6 +342,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             }
             first = range.end;
             passes += 1;
+            if let Some(hook) = &options.after_pass {
+                (hook.0)(&film);
+            }
             if !scene.integrator.splats() {
                 rel_mse = Some(film.estimated_rel_mse([rx0, ry0, rx1, ry1]));
             }

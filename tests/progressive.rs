@@ -203,3 +203,44 @@ fn an_error_target_is_refused_for_splatting_integrators() {
     let e = render(&scene, &options).err().unwrap().to_string();
     assert!(e.contains("per-pixel variances"), "{e}");
 }
+
+/// `--preview-every` rewrites the PNG while the render runs; a reader finds
+/// either no file yet or a whole, decodable picture, never half of one.
+#[test]
+fn previews_appear_during_the_render_and_are_always_valid() {
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("cb");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args([
+            "render",
+            "scenes/cornell-box.toml",
+            "-q",
+            "--resolution",
+            "64x64",
+            "--spp",
+            "100000",
+            "--time",
+            "2.5s",
+            "--preview-every",
+            "0.2",
+            "--no-spectral",
+            "-o",
+        ])
+        .arg(&stem)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let png = stem.with_extension("png");
+    let mut seen = 0;
+    while child.try_wait().unwrap().is_none() {
+        if png.exists() {
+            let img = image::open(&png).expect("a preview is always a whole PNG");
+            assert_eq!((img.width(), img.height()), (64, 64));
+            seen += 1;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(child.wait().unwrap().success());
+    assert!(seen >= 5, "previews read during the render: {seen}");
+}

@@ -338,3 +338,25 @@ fn bad_colour_settings_name_the_key() {
     );
     load_str(&ok, Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap();
 }
+
+#[test]
+fn unknown_spectrum_names_list_the_names_there_are_and_suggest_one() {
+    let light = "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = \"D6\"\n";
+    let e = error(&format!(
+        "{CAMERA}[spectra]\nwarm = {{ blackbody = 2700 }}\n{light}"
+    ));
+    assert!(
+        e.contains("unknown spectrum `D6`") && e.contains("warm") && e.contains("FL11"),
+        "{e}"
+    );
+    assert!(e.contains("did you mean `D65`?"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[spectra]\nwarm = {{ blackbody = 2700 }}\n{}",
+        light.replace("D6", "wram")
+    ));
+    assert!(e.contains("did you mean `warm`?"), "{e}");
+    // A long name is not quoted whole.
+    let long = "x".repeat(5000);
+    let e = error(&format!("{CAMERA}{}", light.replace("D6", &long)));
+    assert!(e.len() < 600, "{} characters", e.len());
+}

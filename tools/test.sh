@@ -9,16 +9,11 @@ cd "$(dirname "$0")/.."
 # a fixed seed makes a CI run reproducible. Fresh seeds and more cases:
 # PROPTEST_CASES=100000 cargo test --release --test fuzz
 export PROPTEST_RNG_SEED="${PROPTEST_RNG_SEED:-20261122}"
-# Optimised (Monte Carlo tests need the speed), and in the release profile
-# so that the binary the colour-science checks run is built once with it.
+# Optimised (Monte Carlo tests need the speed), in the release profile:
+# building the tests also builds target/release/prism, the binary the
+# colour-science checks run, so nothing is compiled twice.
 cargo test --release
-cargo build --release
 
-venv=tools/.venv
-if [ ! -x "$venv/bin/python" ] || ! cmp -s tools/requirements.txt "$venv/.requirements"; then
-    python3 -m venv "$venv"
-    "$venv/bin/python" -m pip install --quiet --upgrade pip
-    "$venv/bin/python" -m pip install --quiet -r tools/requirements.txt
-    cp tools/requirements.txt "$venv/.requirements"
-fi
-"$venv/bin/python" -m pytest -q -c tools/pytest.ini tools/tests
+source tools/venv.sh
+ensure_tools_venv
+tools/.venv/bin/python -m pytest -q -c tools/pytest.ini tools/tests

@@ -13,6 +13,7 @@ pub use output::Tonemap;
 
 use glam::{DVec3, Vec3};
 
+use crate::integrator::aov::AovSample;
 use crate::spectrum::cie::{ColourMatching, Observer};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -43,7 +44,43 @@ pub struct FilmSettings {
     /// Bits per PNG sample: 8 or 16.
     pub png_bits: u8,
     pub gamut: Gamut,
+    /// Extra outputs of NAME.exr.
+    pub aovs: AovSet,
 }
+
+/// Which arbitrary output variables NAME.exr carries (`film.aovs`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AovSet {
+    pub albedo: bool,
+    pub normal: bool,
+    pub depth: bool,
+    pub sample_count: bool,
+}
+
+impl AovSet {
+    /// The names `film.aovs` takes.
+    pub const NAMES: [&'static str; 4] = ["albedo", "normal", "depth", "sample_count"];
+
+    /// Whether a first-hit ray must be traced per sample.
+    pub fn traced(&self) -> bool {
+        self.albedo || self.normal || self.depth
+    }
+
+    /// Adds the AOV `name`; false for an unknown name.
+    pub fn add(&mut self, name: &str) -> bool {
+        match name {
+            "albedo" => self.albedo = true,
+            "normal" => self.normal = true,
+            "depth" => self.depth = true,
+            "sample_count" => self.sample_count = true,
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// Per-pixel sums of the traced AOVs: albedo XYZ, normal, depth.
+pub type AovSums = [f64; 7];
 
 impl FilmSettings {
     /// A film of `width` × `height` with every other setting at its default.
@@ -67,6 +104,7 @@ impl FilmSettings {
             display: Display::Srgb,
             png_bits: 8,
             gamut: Gamut::Clip,
+            aovs: AovSet::default(),
         }
     }
 
@@ -153,6 +191,8 @@ pub struct FilmTile {
     film_width: u32,
     layout: SpectralLayout,
     cmfs: &'static ColourMatching,
+    /// AOV sums per pixel of the tile (empty when none is traced).
+    pub aovs: Vec<AovSums>,
 }
 
 impl FilmTile {
@@ -178,6 +218,29 @@ impl FilmTile {
             film_width,
             layout,
             cmfs: Observer::Cie1931.cmfs(),
+            aovs: Vec::new(),
+        }
+    }
+
+    /// The same tile recording AOVs too.
+    pub fn with_aovs(self) -> Self {
+        let n = self.pixels.len();
+        Self {
+            aovs: vec![[0.0; 7]; n],
+            ..self
+        }
+    }
+
+    /// Adds one sample's AOVs to the pixel at film position (x, y).
+    pub fn add_aov(&mut self, x: u32, y: u32, a: &AovSample) {
+        let i = ((y - self.y0) * self.width + (x - self.x0)) as usize;
+        let v = [
+            a.albedo.x, a.albedo.y, a.albedo.z, a.normal.x, a.normal.y, a.normal.z, a.depth,
+        ];
+        for (sum, v) in self.aovs[i].iter_mut().zip(v) {
+            if v.is_finite() {
+                *sum += v as f64;
+            }
         }
     }
 
@@ -241,6 +304,8 @@ pub struct Film {
     pub layout: SpectralLayout,
     pixels: Vec<PixelSums>,
     buckets: Vec<f32>,
+    /// AOV sums per pixel (empty when none is traced).
+    aovs: Vec<AovSums>,
 }
 
 impl Film {
@@ -252,7 +317,27 @@ impl Film {
             layout,
             pixels: vec![PixelSums::default(); n],
             buckets: vec![0.0; n * layout.count as usize],
+            aovs: Vec::new(),
         }
+    }
+
+    /// The same film recording AOVs too.
+    pub fn with_aovs(self) -> Self {
+        let n = self.pixels.len();
+        Self {
+            aovs: vec![[0.0; 7]; n],
+            ..self
+        }
+    }
+
+    /// Mean AOVs of a pixel (albedo XYZ, unit normal, depth); None when the
+    /// film records none.
+    pub fn aov(&self, x: u32, y: u32) -> Option<(Vec3, Vec3, f32)> {
+        let sums = self.aovs.get((y * self.width + x) as usize)?;
+        let n = self.sums(x, y).samples.max(1) as f64;
+        let v = sums.map(|s| (s / n) as f32);
+        let normal = Vec3::new(v[3], v[4], v[5]).normalize_or_zero();
+        Some((Vec3::new(v[0], v[1], v[2]), normal, v[6]))
     }
 
     pub fn add_tile(&mut self, tile: &FilmTile) {
@@ -263,6 +348,14 @@ impl Film {
             a.xyz += b.xyz;
             a.y_squared += b.y_squared;
             a.samples += b.samples;
+        }
+        if !self.aovs.is_empty() {
+            for (i, b) in tile.aovs.iter().enumerate() {
+                let a = &mut self.aovs[film_index(i as u32)];
+                for (s, v) in a.iter_mut().zip(b) {
+                    *s += v;
+                }
+            }
         }
         let n = self.layout.count as usize;
         for &(i, bucket, v) in &tile.spectral {

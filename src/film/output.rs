@@ -10,7 +10,7 @@ use glam::Vec3;
 
 use super::colour::{ColourSpace, ColourTransform};
 use super::display::{self, DisplaySettings};
-use super::{Film, FilmSettings};
+use super::{AovSet, Film, FilmSettings};
 
 /// The view transform of the PNG: how linear radiance becomes display
 /// values.
@@ -58,6 +58,66 @@ pub fn write_exr(film: &Film, colour: &ColourTransform, path: &Path) -> Result<(
         Some(colour.space),
         path,
     )
+}
+
+/// The film as NAME.exr: RGB in the film's colour space, and the AOVs its
+/// settings ask for as further channels (`albedo.R/G/B` in the same space,
+/// `normal.X/Y/Z`, `depth.Z`, `sampleCount.Y`).
+pub fn write_film_exr(film: &Film, settings: &FilmSettings, path: &Path) -> Result<()> {
+    let aovs = settings.aovs;
+    if aovs == AovSet::default() {
+        return write_exr(film, &settings.colour, path);
+    }
+    use exr::prelude::*;
+    let (w, h) = (film.width as usize, film.height as usize);
+    let pixels = || (0..film.height).flat_map(|y| (0..film.width).map(move |x| (x, y)));
+    let rgb = film.rgb(&settings.colour);
+    let mut planes: Vec<(&str, Vec<f32>)> = vec![
+        ("R", rgb.iter().map(|c| c.x).collect()),
+        ("G", rgb.iter().map(|c| c.y).collect()),
+        ("B", rgb.iter().map(|c| c.z).collect()),
+    ];
+    let aov: Vec<(Vec3, Vec3, f32)> = pixels()
+        .map(|(x, y)| film.aov(x, y).unwrap_or_default())
+        .collect();
+    if aovs.albedo {
+        let albedo: Vec<Vec3> = aov.iter().map(|a| settings.colour.rgb(a.0)).collect();
+        planes.push(("albedo.R", albedo.iter().map(|c| c.x).collect()));
+        planes.push(("albedo.G", albedo.iter().map(|c| c.y).collect()));
+        planes.push(("albedo.B", albedo.iter().map(|c| c.z).collect()));
+    }
+    if aovs.normal {
+        planes.push(("normal.X", aov.iter().map(|a| a.1.x).collect()));
+        planes.push(("normal.Y", aov.iter().map(|a| a.1.y).collect()));
+        planes.push(("normal.Z", aov.iter().map(|a| a.1.z).collect()));
+    }
+    if aovs.depth {
+        planes.push(("depth.Z", aov.iter().map(|a| a.2).collect()));
+    }
+    if aovs.sample_count {
+        let counts = pixels()
+            .map(|(x, y)| film.sums(x, y).samples as f32)
+            .collect();
+        planes.push(("sampleCount.Y", counts));
+    }
+    let channels: Vec<AnyChannel<FlatSamples>> = planes
+        .into_iter()
+        .map(|(name, plane)| AnyChannel::new(name, FlatSamples::F32(plane)))
+        .collect();
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(channels.into_iter().collect()),
+    );
+    let mut image = Image::from_layer(layer);
+    image.attributes.chromaticities = Some(exr_chromaticities(settings.colour.space));
+    write_atomically(path, |tmp| {
+        image
+            .write()
+            .to_file(tmp)
+            .with_context(|| format!("cannot write {}", tmp.display()))
+    })
 }
 
 /// Row-major linear sRGB pixels as a float32 RGB OpenEXR.

@@ -9,6 +9,7 @@
 //! wherever a light path lands). The driver keeps both deterministic for
 //! any thread count.
 
+pub mod aov;
 mod bdpt;
 mod interface;
 pub mod ior_stack;

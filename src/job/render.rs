@@ -4,7 +4,7 @@
 use std::ops::Range;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
@@ -14,10 +14,11 @@ use crate::film::display::{
     matrix_text, rgb_to_display, ATTR_DISPLAY, ATTR_GAMUT, ATTR_PNG_BITS, ATTR_RGB_TO_DISPLAY,
 };
 use crate::film::{output, spectral_exr};
+use crate::film::{Film, FilmSettings};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
 use crate::merge::{scene_hash, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
-use crate::render::{render, RenderOptions, Stop};
+use crate::render::{render, PassHook, RenderOptions, Stop};
 use crate::scene::{self, Overrides};
 
 pub struct RenderJob {
@@ -43,12 +44,31 @@ pub struct RenderJob {
     pub target_error: Option<f64>,
     /// Progress line interval where stderr is not a terminal.
     pub log_every: Duration,
+    /// Rewrite NAME.png this often while rendering (`--preview-every`).
+    pub preview_every: Option<Duration>,
 }
 
 /// How a render job ended (errors aside).
 pub struct RenderOutcome {
     /// Stopped before every sample was taken; the files hold what was.
     pub interrupted: bool,
+}
+
+/// A pass hook that rewrites `png` (atomically: a reader sees the old or
+/// the new picture, never half of one) when `every` has passed since the
+/// last preview.
+fn preview_writer(png: PathBuf, film: FilmSettings, every: Duration) -> PassHook {
+    let last = Mutex::new(Instant::now());
+    PassHook(Arc::new(move |result: &Film| {
+        let mut last = last.lock().unwrap_or_else(|e| e.into_inner());
+        if last.elapsed() < every {
+            return;
+        }
+        if let Err(e) = output::write_png(result, &film, &png) {
+            eprintln!("warning: preview not written: {e:#}");
+        }
+        *last = Instant::now();
+    }))
 }
 
 /// Runs the job; progress and the report go to stderr.
@@ -109,6 +129,13 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
 
     let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
+    if let Some(every) = job.preview_every {
+        options.after_pass = Some(preview_writer(
+            suffixed(&stem, "png"),
+            scene.film.clone(),
+            every,
+        ));
+    }
     eprintln!(
         "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} lights, {}x{}, {} integrator",
         job.scene.display(),
@@ -172,7 +199,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
     let exr = suffixed(&stem, "exr");
     let png = suffixed(&stem, "png");
-    output::write_exr(&result, &film.colour, &exr)?;
+    output::write_film_exr(&result, film, &exr)?;
     output::write_png(&result, film, &png)?;
     eprintln!("wrote {} and {}", exr.display(), png.display());
     if film.spectral_output {

@@ -187,6 +187,8 @@ pub struct FilmSpec {
     pub png_bits: u8,
     /// Out-of-gamut display colours: "clip" or "map".
     pub gamut: Gamut,
+    /// Extra outputs of NAME.exr: "albedo", "normal", "depth", "sample_count".
+    pub aovs: Vec<String>,
 }
 
 impl Default for FilmSpec {
@@ -207,6 +209,7 @@ impl Default for FilmSpec {
             display: Display::Srgb,
             png_bits: 8,
             gamut: Gamut::Clip,
+            aovs: Vec::new(),
         }
     }
 }

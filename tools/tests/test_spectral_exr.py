@@ -44,3 +44,20 @@ def test_coarse_buckets_are_read_in_wavelength_order(prism, tmp_path):
     np.testing.assert_allclose(wavelengths, np.arange(385, 780, 10))
     assert values.shape == (16, 16, 40)
     assert np.isfinite(values).all() and (values >= 0).all() and values.max() > 0
+
+
+def test_colour_check_gives_a_verdict(prism, tmp_path):
+    import pathlib
+    import subprocess
+    import sys
+
+    tool = pathlib.Path(__file__).resolve().parents[1] / "colour_check.py"
+    a, b = tmp_path / "a", tmp_path / "b"
+    # Default 10 nm buckets: the per-pixel differences reach dE 5 and more,
+    # and the verdict still passes on the mean, scaled to the bucket width.
+    prism("render", "scenes/cornell-box.toml", "-q", "-o", a, "--resolution", "48x48", "--spp", "16")
+    prism("render", "scenes/colorchecker.toml", "-q", "-o", b, "--resolution", "48x48", "--spp", "16")
+    ok = subprocess.run([sys.executable, tool, f"{a}.spectral.exr", f"{a}.exr"], capture_output=True, text=True)
+    assert ok.returncode == 0 and "PASS" in ok.stdout, ok.stdout + ok.stderr
+    bad = subprocess.run([sys.executable, tool, f"{a}.spectral.exr", f"{b}.exr"], capture_output=True, text=True)
+    assert bad.returncode == 1 and "FAIL" in bad.stdout, bad.stdout + bad.stderr

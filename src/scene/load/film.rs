@@ -3,7 +3,7 @@
 
 use super::spectra::Role;
 use super::Loader;
-use crate::film::{ColourTransform, FilmSettings, SpectralLayout};
+use crate::film::{AovSet, ColourTransform, FilmSettings, SpectralLayout};
 use crate::integrator::Integrator;
 use crate::scene::format::SceneFile;
 use crate::scene::spectrum_spec::SpectrumSpec;
@@ -37,6 +37,15 @@ impl Loader {
                 f.png_bits
             )));
         }
+        let mut aovs = AovSet::default();
+        for name in &f.aovs {
+            if !aovs.add(name) {
+                return Err(self.error(format!(
+                    "`film.aovs`: unknown output {name:?}; the outputs are {}",
+                    AovSet::NAMES.join(", ")
+                )));
+            }
+        }
         let white_balance = self.white_balance(file)?;
         let colour = ColourTransform::new(f.colour_space, f.observer, white_balance.as_ref());
         let display_colour =
@@ -63,6 +72,7 @@ impl Loader {
             display: f.display,
             png_bits: f.png_bits,
             gamut: f.gamut,
+            aovs,
         })
     }
 

@@ -35,6 +35,9 @@ impl Loader {
             SpectrumSpec::Named(name) => match file.spectra.get(name) {
                 Some(SpectrumSpec::Named(inner)) => self.builtin(inner, role, key)?,
                 Some(defined) => self.spectrum(defined, role, file, &format!("spectra.{name}"))?,
+                None if cie::illuminant(name).is_none() => {
+                    return Err(self.unknown_spectrum(name, file, key))
+                }
                 None => self.builtin(name, role, key)?,
             },
             SpectrumSpec::Constant(c) => Spectrum::Constant(*c),
@@ -118,6 +121,38 @@ impl Loader {
         }
     }
 
+    /// An unknown spectrum name: the names there are (the scene's and the
+    /// built-in ones), and the nearest as a suggestion.
+    fn unknown_spectrum(&self, name: &str, file: &SceneFile, key: &str) -> SceneError {
+        let own: Vec<&str> = file.spectra.keys().map(String::as_str).collect();
+        let known = own.iter().copied().chain(cie::ILLUMINANT_NAMES);
+        let nearest = known
+            .clone()
+            .map(|k| {
+                (
+                    super::edit_distance(&name.to_lowercase(), &k.to_lowercase()),
+                    k,
+                )
+            })
+            .min();
+        let mut message = format!(
+            "`{key}`: unknown spectrum `{}` (built-in: {}; the scene's [spectra]: {})",
+            truncated(name),
+            cie::ILLUMINANT_NAMES.join(", "),
+            if own.is_empty() {
+                "none".to_string()
+            } else {
+                own.join(", ")
+            }
+        );
+        if let Some((d, k)) = nearest {
+            if d > 0 && d <= 2.max(name.len() / 3) {
+                message.push_str(&format!("\ndid you mean `{k}`?"));
+            }
+        }
+        self.error(message)
+    }
+
     pub(super) fn table(
         &self,
         l: Vec<f32>,
@@ -181,4 +216,13 @@ fn sampled_range(s: &Spectrum) -> (f32, f32) {
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         })
+}
+
+/// A name as quoted in a message: at most 60 characters.
+fn truncated(name: &str) -> String {
+    if name.chars().count() <= 60 {
+        name.to_string()
+    } else {
+        format!("{}…", name.chars().take(60).collect::<String>())
+    }
 }
