@@ -99,6 +99,10 @@ enum Command {
         /// the pass under way (10s, 1m; plain numbers are seconds).
         #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
         preview_every: Option<std::time::Duration>,
+        /// Stream the image to the tev HDR viewer at HOST:PORT (tev listens
+        /// on 127.0.0.1:14158 by default) after every pass.
+        #[arg(long, value_name = "HOST:PORT")]
+        display: Option<String>,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -273,6 +277,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             target_error,
             log_every,
             preview_every,
+            display,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -323,6 +328,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 target_error,
                 log_every: std::time::Duration::from_secs_f64(log_every.max(0.1)),
                 preview_every,
+                display,
             };
             let outcome = render_files(&job)?;
             Ok(if outcome.interrupted {

@@ -360,3 +360,14 @@ fn unknown_spectrum_names_list_the_names_there_are_and_suggest_one() {
     let e = error(&format!("{CAMERA}{}", light.replace("D6", &long)));
     assert!(e.len() < 600, "{} characters", e.len());
 }
+
+#[test]
+fn a_misspelt_key_in_a_tagged_table_is_pointed_at_not_its_header() {
+    let e = error(&format!(
+        "{CAMERA}[materials.m]\ntype = \"diffuse\"\nreflectanse = 0.5\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n"
+    ));
+    assert!(e.contains("line 6, column 1"), "{e}");
+    assert!(e.contains("6 | reflectanse = 0.5\n  | ^^^^^^^^^^^"), "{e}");
+    assert!(e.contains("did you mean `reflectance`?"), "{e}");
+}

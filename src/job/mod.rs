@@ -4,6 +4,7 @@
 mod info;
 mod merge;
 mod render;
+mod tev;
 
 use std::path::{Path, PathBuf};
 

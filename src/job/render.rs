@@ -9,12 +9,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
 
+use super::tev::Tev;
 use super::{check_writable, human_bytes, output_stem, suffixed};
 use crate::film::display::{
     matrix_text, rgb_to_display, ATTR_DISPLAY, ATTR_GAMUT, ATTR_PNG_BITS, ATTR_RGB_TO_DISPLAY,
 };
 use crate::film::{output, spectral_exr};
-use crate::film::{Film, FilmSettings};
+use crate::film::{ColourTransform, Film, FilmSettings};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
 use crate::merge::{scene_hash, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
@@ -46,6 +47,8 @@ pub struct RenderJob {
     pub log_every: Duration,
     /// Rewrite NAME.png this often while rendering (`--preview-every`).
     pub preview_every: Option<Duration>,
+    /// Stream the image to tev at HOST:PORT (`--display`).
+    pub display: Option<String>,
 }
 
 /// How a render job ended (errors aside).
@@ -68,6 +71,21 @@ fn preview_writer(png: PathBuf, film: FilmSettings, every: Duration) -> PassHook
             eprintln!("warning: preview not written: {e:#}");
         }
         *last = Instant::now();
+    }))
+}
+
+/// A pass hook that sends the film's linear RGB to tev after every pass;
+/// after a failed send (tev closed) it warns once and stops.
+fn tev_streamer(tev: Tev, colour: ColourTransform) -> PassHook {
+    let tev = Mutex::new(Some(tev));
+    PassHook(Arc::new(move |result: &Film| {
+        let mut guard = tev.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = guard.as_mut() {
+            if let Err(e) = t.update(&result.rgb(&colour)) {
+                eprintln!("warning: the display stopped taking the image ({e}); rendering on");
+                *guard = None;
+            }
+        }
     }))
 }
 
@@ -129,12 +147,30 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
 
     let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
+    let mut hooks: Vec<PassHook> = Vec::new();
     if let Some(every) = job.preview_every {
-        options.after_pass = Some(preview_writer(
+        hooks.push(preview_writer(
             suffixed(&stem, "png"),
             scene.film.clone(),
             every,
         ));
+    }
+    if let Some(address) = &job.display {
+        let name = stem
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "prism".into());
+        match Tev::connect(address, &name, film.width, film.height) {
+            Ok(tev) => hooks.push(tev_streamer(tev, film.colour)),
+            Err(e) => eprintln!("warning: {e:#}; rendering without a display"),
+        }
+    }
+    if !hooks.is_empty() {
+        options.after_pass = Some(PassHook(Arc::new(move |f: &Film| {
+            for hook in &hooks {
+                (hook.0)(f);
+            }
+        })));
     }
     eprintln!(
         "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} lights, {}x{}, {} integrator",

@@ -186,8 +186,8 @@ impl Loader {
                 "`{key}` is not a finite number; numbers in a scene must be finite"
             )));
         }
-        let mut file: SceneFile =
-            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
+        let mut file: SceneFile = toml::from_str(text)
+            .map_err(|e| self.error(with_suggestion(at_unknown_key(text, e.to_string()))))?;
         let file_kind = file.integrator.kind;
         *self.overridden.borrow_mut() = overrides.apply(&mut file);
         if file.integrator.kind != file_kind {
@@ -243,6 +243,59 @@ fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
     } else {
         v.join(", ")
     }
+}
+
+/// Points the caret of "unknown field `x`" at the key. Tables read through
+/// a tag (`type = "diffuse"`) lose their keys' places, and the toml crate
+/// then points at the table's header: find the key below the header, in
+/// the same table, and show that line instead.
+fn at_unknown_key(text: &str, message: String) -> String {
+    let Some(key) = message
+        .split_once("unknown field `")
+        .and_then(|(_, rest)| rest.split_once('`'))
+        .map(|(key, _)| key.to_string())
+    else {
+        return message;
+    };
+    let Some(line) = message
+        .strip_prefix("TOML parse error at line ")
+        .and_then(|rest| rest.split_once(','))
+        .and_then(|(n, _)| n.trim().parse::<usize>().ok())
+    else {
+        return message;
+    };
+    let lines: Vec<&str> = text.lines().collect();
+    let Some(header) = lines.get(line.wrapping_sub(1)) else {
+        return message;
+    };
+    if !header.trim_start().starts_with('[') {
+        return message;
+    }
+    let found = lines
+        .iter()
+        .enumerate()
+        .skip(line)
+        .take_while(|(_, l)| !l.trim_start().starts_with('['))
+        .find(|(_, l)| {
+            l.split_once('=')
+                .is_some_and(|(k, _)| k.trim().trim_matches('"') == key)
+        });
+    let Some((i, l)) = found else {
+        return message;
+    };
+    let Some(rest) = message.split_once("unknown field").map(|(_, r)| r) else {
+        return message;
+    };
+    let column = l.len() - l.trim_start().len();
+    let number = (i + 1).to_string();
+    let pad = " ".repeat(number.len());
+    format!(
+        "TOML parse error at line {}, column {}\n{pad} |\n{number} | {l}\n{pad} | {}{}\nunknown field{rest}",
+        i + 1,
+        column + 1,
+        " ".repeat(column),
+        "^".repeat(key.len()),
+    )
 }
 
 /// Adds "did you mean `spp`?" to serde's "unknown field `samples`, expected
