@@ -103,6 +103,11 @@ enum Command {
         /// on 127.0.0.1:14158 by default) after every pass.
         #[arg(long, value_name = "HOST:PORT")]
         display: Option<String>,
+        /// Spend the samples (--spp on average per pixel) where a pilot
+        /// render finds the relative error high; unbiased (the pilot's
+        /// samples are not in the image). Path tracer only.
+        #[arg(long)]
+        adaptive: bool,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -278,6 +283,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             log_every,
             preview_every,
             display,
+            adaptive,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -329,6 +335,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 log_every: std::time::Duration::from_secs_f64(log_every.max(0.1)),
                 preview_every,
                 display,
+                adaptive,
             };
             let outcome = render_files(&job)?;
             Ok(if outcome.interrupted {

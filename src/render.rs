@@ -53,6 +53,9 @@ pub struct RenderOptions {
     pub log_every: Duration,
     /// Called with the film after every pass (a preview writer).
     pub after_pass: Option<PassHook>,
+    /// Spend the samples (`samples.len()` per pixel on average) where a
+    /// pilot render finds the relative error high ([`adaptive_targets`]).
+    pub adaptive: bool,
 }
 
 /// A function the render calls with the film after each pass: every pixel
@@ -81,6 +84,7 @@ impl RenderOptions {
             target_error: None,
             log_every: Duration::from_secs(5),
             after_pass: None,
+            adaptive: false,
         }
     }
 
@@ -114,6 +118,8 @@ pub struct RenderStats {
     /// The film's estimated relative MSE at the end (None for integrators
     /// that splat, whose per-pixel variances say nothing).
     pub estimated_rel_mse: Option<f64>,
+    /// Samples of the adaptive pilot (not in the image).
+    pub pilot_samples: u64,
 }
 
 /// Why a render ended.
@@ -143,6 +149,12 @@ pub enum RenderError {
         "an error target needs per-pixel variances, and the {0} integrator's splats make them meaningless: use a sample count or a time budget"
     )]
     SplatTarget(&'static str),
+    #[error(
+        "adaptive sampling needs per-pixel variances, and the {0} integrator's splats make them meaningless"
+    )]
+    SplatAdaptive(&'static str),
+    #[error("adaptive sampling spreads a whole render's samples: it takes no --samples range")]
+    AdaptiveRange,
 }
 
 /// Renders the scene. Deterministic: the result depends only on the scene,
@@ -154,6 +166,12 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(Film, RenderSta
     }
     if scene.integrator.splats() && options.target_error.is_some() {
         return Err(RenderError::SplatTarget(scene.integrator.name()));
+    }
+    if options.adaptive && scene.integrator.splats() {
+        return Err(RenderError::SplatAdaptive(scene.integrator.name()));
+    }
+    if options.adaptive && options.samples.start != 0 {
+        return Err(RenderError::AdaptiveRange);
     }
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
@@ -224,9 +242,38 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
         .map(|(x, y)| (x, y, TILE_SIZE.min(rx1 - x), TILE_SIZE.min(ry1 - y)))
         .collect();
 
+    let region_width = rx1.saturating_sub(rx0);
+    // Per pixel of the region, how many samples it takes (adaptive), and a
+    // pilot's cost.
+    let (targets, pilot_samples) = if options.adaptive {
+        let pilot_spp = pilot_spp(samples.len() as u32);
+        let pilot = RenderOptions {
+            samples: 0..pilot_spp,
+            seed: seed ^ PILOT_SEED,
+            progress: false,
+            cancel: None,
+            time_budget: None,
+            target_error: None,
+            after_pass: None,
+            adaptive: false,
+            ..options.clone()
+        };
+        let (pilot_film, pilot_stats) = render_in_pool(scene, &pilot);
+        let t = adaptive_targets(&pilot_film, [rx0, ry0, rx1, ry1], samples.len() as u32);
+        (Some(t), pilot_stats.samples)
+    } else {
+        (None, 0)
+    };
+    let samples = match &targets {
+        Some(t) => samples.start..t.iter().copied().max().unwrap_or(0),
+        None => samples,
+    };
     let spp = samples.len() as u32;
     let pixels = rx1.saturating_sub(rx0) as u64 * ry1.saturating_sub(ry0) as u64;
-    let total = pixels * spp as u64;
+    let total = match &targets {
+        Some(t) => t.iter().map(|&n| n as u64).sum(),
+        None => pixels * spp as u64,
+    };
     let bar = if options.progress {
         let bar = ProgressBar::new(total);
         bar.set_style(
@@ -288,7 +335,16 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                         let mut bad = 0;
                         for y in y0..y0 + h {
                             for x in x0..x0 + w {
-                                for index in range.clone() {
+                                let end = match &targets {
+                                    Some(t) => range
+                                        .end
+                                        .min(t[((y - ry0) * region_width + x - rx0) as usize]),
+                                    None => range.end,
+                                };
+                                let taken = end.saturating_sub(range.start) as u64;
+                                done.fetch_add(taken, Ordering::Relaxed);
+                                bar.inc(taken);
+                                for index in range.start..end {
                                     let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
                                     let s = scene.integrator.sample(
                                         scene,
@@ -330,9 +386,6 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                         rays.fetch_add(counters.rays, Ordering::Relaxed);
                         overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
                         non_finite.fetch_add(bad, Ordering::Relaxed);
-                        let n = (w * h) as u64 * range.len() as u64;
-                        bar.inc(n);
-                        done.fetch_add(n, Ordering::Relaxed);
                         tile
                     })
                     .collect();
@@ -378,8 +431,62 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
         stop,
         spp: first - samples.start,
         estimated_rel_mse: rel_mse,
+        pilot_samples,
     };
     (film, stats)
+}
+
+/// Mixed into the seed of the adaptive pilot: its samples are independent
+/// of the image's.
+const PILOT_SEED: u64 = 0x5eed_0fa1_10ca_7e57;
+
+/// Samples per pixel of the adaptive pilot for an average of `spp`: a
+/// sixteenth, at least 4 (a variance needs a few), at most 64.
+pub fn pilot_spp(spp: u32) -> u32 {
+    (spp / 16).clamp(4, 64)
+}
+
+/// Adaptive sampling: how many samples each pixel of `region` takes so
+/// that they average `spp`. Each pixel gets at least a quarter of `spp`;
+/// the rest goes in proportion to the pilot's relative error per sample,
+/// σ / √(mean² + 0.01) (luminance, the ε of the relMSE), which minimises
+/// the summed relative variance σ²/(n (mean² + ε)) for the budget
+/// (Lagrange: n ∝ σ/√(mean² + ε)); at most 16 × `spp`.
+///
+/// Unbiased: the counts come from the pilot, whose samples (another seed)
+/// the image does not use, so each pixel's value is the mean of a number
+/// of samples fixed before any of them was drawn.
+pub fn adaptive_targets(pilot: &Film, region: [u32; 4], spp: u32) -> Vec<u32> {
+    let [x0, y0, x1, y1] = region;
+    let errors: Vec<f64> = (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (m, var_of_mean) = pilot.luminance_and_variance(x, y);
+            let n = pilot.sums(x, y).samples as f64;
+            let sigma = (var_of_mean * n).max(0.0).sqrt();
+            let e = sigma / (m * m + crate::bench::REL_MSE_EPSILON).sqrt();
+            if e.is_finite() {
+                e
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let floor = (spp / 4).max(1);
+    let cap = spp.saturating_mul(16).max(floor);
+    let spare = (spp - floor.min(spp)) as f64 * errors.len() as f64;
+    let total: f64 = errors.iter().sum();
+    errors
+        .iter()
+        .map(|&e| {
+            let share = if total > 0.0 {
+                spare * e / total
+            } else {
+                (spp - floor.min(spp)) as f64
+            };
+            (floor + share.round() as u32).min(cap)
+        })
+        .collect()
 }
 
 /// Samples per pixel of pass `k`: 1, 1, 2, 4, 8, … up to `cap`. The first

@@ -244,3 +244,92 @@ fn previews_appear_during_the_render_and_are_always_valid() {
     assert!(child.wait().unwrap().success());
     assert!(seen >= 5, "previews read during the render: {seen}");
 }
+
+/// Adaptive sampling: samples go where the pilot's relative error is high,
+/// they average the budget, and the image agrees with a uniform render
+/// within its error bars (unbiased: the counts come from a pilot whose
+/// samples the image does not use).
+#[test]
+fn adaptive_sampling_spends_the_budget_where_the_error_is_and_stays_unbiased() {
+    let scene = cornell();
+    let spp = 64;
+    let (adaptive, stats) = render(
+        &scene,
+        &RenderOptions {
+            adaptive: true,
+            threads: Some(2),
+            seed: 11,
+            ..RenderOptions::with_spp(&scene, spp)
+        },
+    )
+    .unwrap();
+    let (w, h) = (adaptive.width, adaptive.height);
+    let counts: Vec<u64> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| adaptive.sums(x, y).samples)
+        .collect();
+    let mean = counts.iter().sum::<u64>() as f64 / counts.len() as f64;
+    assert!((mean - spp as f64).abs() < 1.0, "mean {mean}");
+    assert!(*counts.iter().min().unwrap() >= spp as u64 / 4);
+    assert!(*counts.iter().max().unwrap() > 2 * spp as u64);
+    assert!(stats.pilot_samples > 0);
+    // Noisier pixels (by the uniform render's own estimate) got more.
+    let (uniform, _) = render(
+        &scene,
+        &RenderOptions {
+            threads: Some(2),
+            seed: 12,
+            ..RenderOptions::with_spp(&scene, spp)
+        },
+    )
+    .unwrap();
+    let rel = |x: u32, y: u32| {
+        let (m, v) = uniform.luminance_and_variance(x, y);
+        v / (m * m + 0.01)
+    };
+    let mut pixels: Vec<(f64, u64)> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| (rel(x, y), adaptive.sums(x, y).samples))
+        .collect();
+    pixels.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let quarter = pixels.len() / 4;
+    let low: u64 = pixels[..quarter].iter().map(|p| p.1).sum();
+    let high: u64 = pixels[pixels.len() - quarter..].iter().map(|p| p.1).sum();
+    assert!(
+        high > 2 * low,
+        "noisiest quarter {high} samples, quietest {low}"
+    );
+    common::assert_blocks_agree(&adaptive, &uniform, 5.0, "adaptive against uniform");
+}
+
+#[test]
+fn adaptive_sampling_is_refused_where_it_cannot_work() {
+    let scene = cornell();
+    let e = render(
+        &scene,
+        &RenderOptions {
+            adaptive: true,
+            samples: 8..16,
+            ..RenderOptions::new(&scene)
+        },
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("--samples"), "{e}");
+    let light = common::scene(&format!(
+        "{}\n[integrator]\ntype = \"light\"\n",
+        common::agree::cornell_box()
+    ));
+    let e = render(
+        &light,
+        &RenderOptions {
+            adaptive: true,
+            ..RenderOptions::new(&light)
+        },
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("adaptive") && e.contains("light"), "{e}");
+}

@@ -49,6 +49,8 @@ pub struct RenderJob {
     pub preview_every: Option<Duration>,
     /// Stream the image to tev at HOST:PORT (`--display`).
     pub display: Option<String>,
+    /// Adaptive sampling (`--adaptive`).
+    pub adaptive: bool,
 }
 
 /// How a render job ended (errors aside).
@@ -139,6 +141,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     options.time_budget = job.time_budget;
     options.target_error = job.target_error;
     options.log_every = job.log_every;
+    options.adaptive = job.adaptive;
     if let Some(t) = job.target_error {
         if !(t > 0.0 && t.is_finite()) {
             bail!("--target-error must be a positive relative MSE, such as 0.01");
@@ -196,9 +199,13 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     let (result, stats) = render(&scene, &options)?;
     let secs = stats.elapsed.as_secs_f64();
     eprintln!(
-        "rendered {} samples ({} per pixel) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
+        "rendered {} samples ({}) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
         stats.samples,
-        stats.spp,
+        if job.adaptive {
+            "adaptive".to_string()
+        } else {
+            format!("{} per pixel", stats.spp)
+        },
         secs,
         stats.samples as f64 / secs / 1e6,
         stats.rays as f64 / secs / 1e6,
@@ -216,6 +223,22 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         eprintln!(
             "warning: {} times a path was inside more than {CAPACITY} nested dielectrics; the extra media were ignored",
             stats.stack_overflows,
+        );
+    }
+    if job.adaptive {
+        let counts: Vec<u64> = (0..film.height)
+            .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+            .map(|(x, y)| result.sums(x, y).samples)
+            .filter(|&n| n > 0)
+            .collect();
+        let (lo, hi) = (
+            counts.iter().min().copied().unwrap_or(0),
+            counts.iter().max().copied().unwrap_or(0),
+        );
+        eprintln!(
+            "adaptive: {lo} to {hi} samples per pixel (mean {:.1}), after a pilot of {} samples not in the image",
+            counts.iter().sum::<u64>() as f64 / counts.len().max(1) as f64,
+            stats.pilot_samples
         );
     }
     match stats.stop {
