@@ -210,7 +210,9 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         stats.samples as f64 / secs / 1e6,
         stats.rays as f64 / secs / 1e6,
         match stats.estimated_rel_mse {
-            Some(e) => format!(", estimated relMSE {e:.2e}"),
+            Some(e) if e.is_finite() => format!(", estimated relMSE {e:.2e}"),
+            // One sample a pixel has no spread to estimate from.
+            Some(_) => ", estimated relMSE unknown (one sample a pixel)".to_string(),
             None => String::new(),
         },
         if stats.non_finite > 0 {
