@@ -81,3 +81,30 @@ fn channels_are_ordered_by_wavelength_not_by_name() {
     assert_eq!(img.spectral[3][0], 1.0);
     assert_eq!(img.spectral[0][0], 2.0);
 }
+
+/// The exr crate writes custom attributes in hash-map order; prism sorts
+/// them, so the same film gives the same bytes, every time.
+#[test]
+fn the_same_film_gives_the_same_bytes() {
+    let scene = common::repo_scene(
+        "scenes/cornell-box.toml",
+        "resolution = [8, 6]\nspp = 2",
+        "",
+    );
+    let (film, _) = render(&scene, &RenderOptions::new(&scene)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let names: Vec<String> = (0..12).map(|i| format!("prismNote{i}")).collect();
+    let attributes: Vec<(&str, String)> = names.iter().map(|n| (n.as_str(), n.clone())).collect();
+    let colour = prism::film::ColourTransform::default();
+    let mut files = Vec::new();
+    for k in 0..4 {
+        let path = dir.path().join(format!("{k}.spectral.exr"));
+        spectral_exr::write(&film, &colour, &path, &attributes).unwrap();
+        files.push(std::fs::read(&path).unwrap());
+    }
+    assert!(files.windows(2).all(|w| w[0] == w[1]));
+    let img = spectral_exr::read(&dir.path().join("0.spectral.exr")).unwrap();
+    for n in &names {
+        assert_eq!(&img.attributes[n], n);
+    }
+}

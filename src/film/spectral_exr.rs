@@ -198,8 +198,48 @@ pub fn write_image(img: &SpectralImage, path: &Path) -> Result<()> {
         image
             .write()
             .to_file(tmp)
-            .with_context(|| format!("cannot write {}", tmp.display()))
+            .with_context(|| format!("cannot write {}", tmp.display()))?;
+        sort_header_attributes(tmp)
     })
+}
+
+/// Rewrites a single-part EXR's header with its attributes sorted by name.
+/// The exr crate writes custom attributes in hash-map order, different on
+/// every run; sorted, the same image gives the same bytes. The header keeps
+/// its size, so the offset table after it stays right.
+fn sort_header_attributes(path: &Path) -> Result<()> {
+    let mut bytes =
+        std::fs::read(path).with_context(|| format!("cannot read back {}", path.display()))?;
+    let bad = || anyhow::anyhow!("{}: unexpected EXR header layout", path.display());
+    const START: usize = 8; // magic number and version
+    let mut at = START;
+    let mut attributes: Vec<(&[u8], &[u8])> = Vec::new();
+    let field = |at: usize| -> Result<usize> {
+        let len = bytes[at..].iter().position(|&b| b == 0).ok_or_else(bad)?;
+        Ok(at + len + 1)
+    };
+    while *bytes.get(at).ok_or_else(bad)? != 0 {
+        let name_end = field(at)?;
+        let type_end = field(name_end)?;
+        let size: [u8; 4] = bytes
+            .get(type_end..type_end + 4)
+            .ok_or_else(bad)?
+            .try_into()
+            .expect("four bytes");
+        let end = type_end + 4 + u32::from_le_bytes(size) as usize;
+        if end > bytes.len() {
+            return Err(bad());
+        }
+        attributes.push((&bytes[at..name_end], &bytes[at..end]));
+        at = end;
+    }
+    attributes.sort_by(|a, b| a.0.cmp(b.0));
+    let sorted: Vec<u8> = attributes
+        .iter()
+        .flat_map(|a| a.1.iter().copied())
+        .collect();
+    bytes[START..at].copy_from_slice(&sorted);
+    std::fs::write(path, &bytes).with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Reads any single-layer EXR, sorting spectral channels by wavelength
