@@ -371,3 +371,30 @@ fn a_misspelt_key_in_a_tagged_table_is_pointed_at_not_its_header() {
     assert!(e.contains("6 | reflectanse = 0.5\n  | ^^^^^^^^^^^"), "{e}");
     assert!(e.contains("did you mean `reflectance`?"), "{e}");
 }
+
+#[test]
+fn arrays_of_the_wrong_length_are_errors() {
+    let light = "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n";
+    let e = error(&format!(
+        "{CAMERA}[film]\nresolution = [16, 16, 16]\n{light}"
+    ));
+    assert!(
+        e.contains("line 5") && e.contains("invalid length 3, expected an array of 2"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "[camera]\nposition = [0, 0, -5, 1]\nlook_at = [0, 0, 0]\n{light}"
+    ));
+    assert!(
+        e.contains("line 2") && e.contains("invalid length 4"),
+        "{e}"
+    );
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"quad\"\nvertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0]]\nemission = 1\n"
+    ));
+    assert!(e.contains("four corners"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\ntransform = {{ rotate = {{ axis = [0, 1], degrees = 30 }} }}\n"
+    ));
+    assert!(e.contains("invalid length 2"), "{e}");
+}

@@ -79,10 +79,13 @@ pub struct LightSpec {
     #[serde(rename = "type")]
     pub kind: LightKind,
     /// point, spot: where the light is.
+    #[serde(default, deserialize_with = "exact::option")]
     pub position: Option<[f32; 3]>,
     /// spot: the point the cone's axis goes through.
+    #[serde(default, deserialize_with = "exact::option")]
     pub look_at: Option<[f32; 3]>,
     /// directional: the direction the light travels in.
+    #[serde(default, deserialize_with = "exact::option")]
     pub direction: Option<[f32; 3]>,
     /// point, spot: radiant intensity per nm, a spectrum.
     pub intensity: Option<SpectrumSpec>,
@@ -110,13 +113,15 @@ pub enum LightKind {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
+    #[serde(default, deserialize_with = "exact::option")]
     pub position: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "exact::option")]
     pub look_at: Option<[f32; 3]>,
     /// Take the camera from a glTF file (its first perspective camera, or
     /// the one called `name`) instead of position/look_at/up/fov.
     pub from_file: Option<PathBuf>,
     pub name: Option<String>,
-    #[serde(default = "default_up")]
+    #[serde(default = "default_up", deserialize_with = "exact::array")]
     pub up: [f32; 3],
     /// Vertical field of view in degrees (default 40 unless focal_length is given).
     pub fov: Option<f32>,
@@ -158,6 +163,7 @@ fn default_film_height() -> f32 {
 #[serde(deny_unknown_fields, default)]
 pub struct FilmSpec {
     /// [width, height] in pixels.
+    #[serde(deserialize_with = "exact::array")]
     pub resolution: [u32; 2],
     /// Samples per pixel.
     pub spp: u32,
@@ -170,6 +176,7 @@ pub struct FilmSpec {
     /// Tone map for the PNG.
     pub tonemap: Tonemap,
     /// Wavelength range [min, max] in nm of the spectral buckets.
+    #[serde(deserialize_with = "exact::array")]
     pub spectral_range: [f32; 2],
     /// Number of equal-width spectral buckets over `spectral_range`.
     pub spectral_buckets: u32,
@@ -287,8 +294,10 @@ pub struct ShapeSpec {
     /// obj, gltf: the file's materials to replace, by name → scene material.
     pub materials: Option<BTreeMap<String, String>>,
     /// quad: four corners in order; the front face is counter-clockwise.
+    #[serde(default, deserialize_with = "exact::quad")]
     pub vertices: Option<[[f32; 3]; 4]>,
     /// sphere: centre and radius.
+    #[serde(default, deserialize_with = "exact::option")]
     pub center: Option<[f32; 3]>,
     pub radius: Option<f32>,
     /// sphere: segments around the equator (default 64).
@@ -303,7 +312,9 @@ pub struct ShapeSpec {
 pub struct TransformSpec {
     pub scale: Option<ScaleSpec>,
     pub rotate: Option<RotateSpec>,
+    #[serde(default, deserialize_with = "exact::option")]
     pub translate: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "exact::option")]
     pub matrix: Option<[f32; 16]>,
 }
 
@@ -317,6 +328,55 @@ pub enum ScaleSpec {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RotateSpec {
+    #[serde(deserialize_with = "exact::array")]
     pub axis: [f32; 3],
     pub degrees: f32,
+}
+
+/// Fixed-length arrays read exactly: the toml crate fills `[f32; 3]` from
+/// the first numbers of a longer array without a word, so `resolution =
+/// [16, 16, 16]` would pass for [16, 16].
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    fn sized<E: Error, T, const N: usize>(v: Vec<T>) -> Result<[T; N], E> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| E::invalid_length(n, &format!("an array of {N} numbers").as_str()))
+    }
+
+    pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        sized(Vec::<T>::deserialize(d)?)
+    }
+
+    pub fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        Option::<Vec<T>>::deserialize(d)?.map(sized).transpose()
+    }
+
+    /// A quad's four corners of three coordinates.
+    pub fn quad<'de, D>(d: D) -> Result<Option<[[f32; 3]; 4]>, D::Error>
+    where
+        D: Deserializer<'de>,
+    {
+        let Some(corners) = Option::<Vec<Vec<f32>>>::deserialize(d)? else {
+            return Ok(None);
+        };
+        let corners = corners
+            .into_iter()
+            .map(sized::<D::Error, f32, 3>)
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = corners.len();
+        corners
+            .try_into()
+            .map(Some)
+            .map_err(|_| D::Error::invalid_length(n, &"four corners"))
+    }
 }
