@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 use super::{LightLeSample, LightLiSample, SceneSphere};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::spectrum::{SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 #[derive(Clone, Debug)]
 pub struct DirectionalLight {
@@ -40,16 +40,8 @@ impl DirectionalLight {
     }
 
     pub fn sample_li(&self, wl: &SampledWavelengths) -> Option<LightLiSample> {
-        let li = self.irradiance.sample(wl);
-        if li == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLiSample {
-            wi: -self.direction,
-            li,
-            pdf: 1.0,
-            point: None,
-        })
+        // A delta in direction: density 1 by convention.
+        LightLiSample::from_infinity(-self.direction, self.irradiance.sample(wl), 1.0)
     }
 
     /// A ray towards the scene from a uniform point of a disc of the

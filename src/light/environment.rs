@@ -40,16 +40,8 @@ impl UniformEnvironment {
     }
 
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        let li = self.radiance.sample(wl);
-        if li == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLiSample {
-            wi: sphere_direction(1.0 - 2.0 * u.0, u.1),
-            li,
-            pdf: self.pdf_li(),
-            point: None,
-        })
+        let wi = sphere_direction(1.0 - 2.0 * u.0, u.1);
+        LightLiSample::from_infinity(wi, self.radiance.sample(wl), self.pdf_li())
     }
 
     pub fn pdf_li(&self) -> f32 {

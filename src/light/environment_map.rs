@@ -103,16 +103,7 @@ impl EnvironmentMap {
 
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
         let (wi, pdf) = self.sphere.sample(u)?;
-        let li = self.radiance(wi, wl);
-        if li == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLiSample {
-            wi,
-            li,
-            pdf,
-            point: None,
-        })
+        LightLiSample::from_infinity(wi, self.radiance(wi, wl), pdf)
     }
 
     /// A ray into the scene: a direction from the map's distribution, from

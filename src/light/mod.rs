@@ -159,6 +159,20 @@ pub struct LightLiSample {
     pub point: Option<LightPoint>,
 }
 
+impl LightLiSample {
+    /// Light `li` arriving from a light at infinity along `wi` (unit,
+    /// towards the light), drawn with solid-angle density `pdf`; None when
+    /// nothing arrives.
+    pub fn from_infinity(wi: Vec3, li: SampledSpectrum, pdf: f32) -> Option<Self> {
+        (li != SampledSpectrum::ZERO).then_some(Self {
+            wi,
+            li,
+            pdf,
+            point: None,
+        })
+    }
+}
+
 /// A ray leaving a light.
 #[derive(Clone, Copy, Debug)]
 pub struct LightLeSample {

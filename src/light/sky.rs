@@ -112,16 +112,7 @@ impl Sky {
 
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
         let (wi, pdf) = self.sphere.sample(u)?;
-        let li = self.radiance(wi, wl);
-        if li == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLiSample {
-            wi,
-            li,
-            pdf,
-            point: None,
-        })
+        LightLiSample::from_infinity(wi, self.radiance(wi, wl), pdf)
     }
 
     /// A ray into the scene: a direction from the sky's distribution, from

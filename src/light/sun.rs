@@ -156,16 +156,7 @@ impl Sun {
 
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
         let wi = self.sample_direction(u);
-        let li = self.radiance(wi, wl);
-        if li == SampledSpectrum::ZERO {
-            return None;
-        }
-        Some(LightLiSample {
-            wi,
-            li,
-            pdf: self.cone_pdf(),
-            point: None,
-        })
+        LightLiSample::from_infinity(wi, self.radiance(wi, wl), self.cone_pdf())
     }
 
     /// A ray into the scene: a direction in the cone, from a uniform point
