@@ -165,8 +165,6 @@ pub fn bradford(from: DVec3, to: DVec3) -> DMat3 {
 pub struct ColourTransform {
     pub space: ColourSpace,
     pub observer: Observer,
-    /// Whether a white balance chose the render's white.
-    pub white_balanced: bool,
     xyz_to_rgb: Mat3,
 }
 
@@ -190,7 +188,6 @@ impl ColourTransform {
         Self {
             space,
             observer,
-            white_balanced: white_balance.is_some(),
             xyz_to_rgb: (space.xyz_to_rgb() * adapt).as_mat3(),
         }
     }

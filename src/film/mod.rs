@@ -436,11 +436,6 @@ impl Film {
         sum / ((x1 - x0) as f64 * (y1 - y0) as f64).max(1.0)
     }
 
-    /// Fewest samples any pixel has.
-    pub fn min_samples(&self) -> u64 {
-        self.pixels.iter().map(|p| p.samples).min().unwrap_or(0)
-    }
-
     pub fn total_samples(&self) -> u64 {
         self.pixels.iter().map(|p| p.samples).sum()
     }
