@@ -8,8 +8,6 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
 
-use exr::prelude::{ReadChannels, ReadLayers};
-
 /// A camera 3 units above a grey floor (reflectance 0.5) looking straight
 /// down, a smooth glass sphere in view, lit from above.
 const SCENE: &str = r#"
@@ -43,30 +41,6 @@ radius = 1
 emission = 5
 "#;
 
-fn channels(path: &Path) -> (usize, HashMap<String, Vec<f32>>) {
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .unwrap();
-    let layer = image.layer_data;
-    let map = layer
-        .channel_data
-        .list
-        .iter()
-        .map(|c| {
-            (
-                c.name.to_string(),
-                c.sample_data.values_as_f32().collect::<Vec<f32>>(),
-            )
-        })
-        .collect();
-    (layer.size.width(), map)
-}
-
 fn render(dir: &Path, name: &str, scene: &str) -> (usize, HashMap<String, Vec<f32>>) {
     let file = dir.join(format!("{name}.toml"));
     std::fs::write(&file, scene).unwrap();
@@ -80,7 +54,7 @@ fn render(dir: &Path, name: &str, scene: &str) -> (usize, HashMap<String, Vec<f3
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    channels(&dir.join(format!("{name}.exr")))
+    common::exr_channels(&dir.join(format!("{name}.exr")))
 }
 
 #[test]

@@ -2,11 +2,11 @@
 //! fake tev that parses the protocol (CreateImage, then UpdateImageV3
 //! blocks) and assembles the picture, which must be the render's EXR.
 
+mod common;
+
 use std::io::Read;
 use std::net::TcpListener;
 use std::process::Command;
-
-use exr::prelude::{ReadChannels, ReadLayers};
 
 struct Reader<'a>(&'a [u8], usize);
 
@@ -119,24 +119,10 @@ fn the_display_stream_is_the_rendered_image() {
     // 16 spp: passes of one sample (a sixteenth), each sent in two blocks
     // of rows (64 and 6).
     assert_eq!(updates, 16 * 2);
-    let exr = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(stem.with_extension("exr"))
-        .unwrap();
+    let (_, exr) = common::exr_channels(&stem.with_extension("exr"));
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let channel = exr
-            .layer_data
-            .channel_data
-            .list
-            .iter()
-            .find(|ch| ch.name.to_string() == *name)
-            .unwrap();
-        for (i, v) in channel.sample_data.values_as_f32().enumerate() {
-            assert_eq!(image[i][c], v, "pixel {i} channel {name}");
+        for (i, v) in exr[*name].iter().enumerate() {
+            assert_eq!(image[i][c], *v, "pixel {i} channel {name}");
         }
     }
 }

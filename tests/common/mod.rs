@@ -124,3 +124,24 @@ pub fn assert_blocks_agree(a: &Film, b: &Film, z_max: f64, what: &str) {
         }
     }
 }
+
+/// An EXR's width and its channels by name (the first layer).
+pub fn exr_channels(path: &Path) -> (usize, std::collections::HashMap<String, Vec<f32>>) {
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let layer = image.layer_data;
+    let map = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    (layer.size.width(), map)
+}
