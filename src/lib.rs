@@ -16,6 +16,7 @@ pub mod integrator;
 pub mod job;
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod merge;
 pub mod render;
 pub mod sampler;

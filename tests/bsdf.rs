@@ -222,6 +222,19 @@ fn dielectric(alpha: f32) -> Material {
         ior: Ior::Constant(1.5),
         alpha,
         priority: 0,
+        medium: None,
+        tint: None,
+    }
+}
+
+/// A dielectric whose transmission is filtered by `tint` (glTF's base colour).
+fn tinted(alpha: f32, tint: Spectrum) -> Material {
+    Material::Dielectric {
+        ior: Ior::Constant(1.5),
+        alpha,
+        priority: 0,
+        medium: None,
+        tint: Some(Box::new(tint.into())),
     }
 }
 
@@ -382,6 +395,29 @@ fn furnace_rough_surfaces_lose_only_what_single_scattering_loses() {
 }
 
 #[test]
+fn a_tinted_dielectric_filters_only_what_it_transmits() {
+    // Albedo = R + tint · T: tint 0 leaves the reflection alone, tint ½
+    // halves the transmission; sampling agrees with the quadrature.
+    for alpha in [0.2f32, 0.6] {
+        let at = |m: &Material| albedo(&bsdf(m, incident(40.0), 1.5), 11);
+        let (_, clear) = at(&dielectric(alpha));
+        let (_, reflected) = at(&tinted(alpha, Spectrum::Constant(0.0)));
+        let ((mc, se), half) = at(&tinted(alpha, Spectrum::Constant(0.5)));
+        let expected = reflected + 0.5 * (clear - reflected);
+        eprintln!("tinted glass α {alpha}: R {reflected:.4}, R + T/η² {clear:.4}, tint ½ {half:.4} (sampled {mc:.4} ± {se:.4})");
+        assert!(reflected < 0.5 * clear, "α {alpha}: {reflected} vs {clear}");
+        assert!(
+            (half - expected).abs() < 1e-4,
+            "α {alpha}: {half} vs {expected}"
+        );
+        assert!(
+            (mc - half).abs() < 4.0 * se + 0.01 * half,
+            "α {alpha}: {mc} ± {se} vs {half}"
+        );
+    }
+}
+
+#[test]
 fn gltf_brdf_conserves_energy_and_sampling_matches_quadrature() {
     // A white base: diffuse + coat (dielectric) or a white metal reflect at
     // most everything; sampled albedo and the quadrature of eval agree.
@@ -453,6 +489,7 @@ fn reflection_is_reciprocal() {
     for m in [
         conductor(0.3),
         dielectric(0.3),
+        tinted(0.3, Spectrum::rgb_reflectance(Vec3::new(0.9, 0.4, 0.2))),
         conductor(0.8),
         pbr(0.6, 0.0, 0.4),
         pbr(0.6, 0.5, 0.7),

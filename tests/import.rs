@@ -835,3 +835,81 @@ fn toml_diffuse_texture() {
         "{e}"
     );
 }
+
+#[test]
+fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = GltfBuilder::default();
+    let prim = format!("{}, \"material\":0}}", assets::quad(&mut b, true));
+    let json = b.json(&format!(
+        r#""extensionsUsed":["KHR_materials_transmission","KHR_materials_volume"],
+        "scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"mesh":0}}],
+        "meshes":[{{"name":"a","primitives":[{prim}]}}],
+        "materials":[
+          {{"name":"amber","pbrMetallicRoughness":{{"baseColorFactor":[1,0.9,0.6,1],"metallicFactor":0,"roughnessFactor":0}},
+            "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}},
+              "KHR_materials_volume":{{"attenuationColor":[0.9,0.5,0.2],"attenuationDistance":0.25,"thicknessFactor":0.1}}}}}}
+        ]"#
+    ));
+    let f = assets::write_glb(dir.path(), "amber", &json, &b.bin);
+    // Scene units of centimetres: the medium is per scene unit.
+    let s = scene_in(
+        dir.path(),
+        &format!("units = 0.01\n{CAMERA}{}", shape("gltf", &f, "")),
+    )
+    .unwrap();
+    let h = hit(&s, Vec3::new(0.0, 0.1, 5.0), -Vec3::Z);
+    let m = s.materials[h.material as usize]
+        .medium()
+        .expect("the volume's attenuation fills the glass");
+    assert!(!m.scatters());
+    let colour = prism::spectrum::Spectrum::rgb_reflectance(Vec3::new(0.9, 0.5, 0.2));
+    for l in [450.0, 550.0, 650.0] {
+        let expected = -colour.eval(l).ln() / 0.25 * 0.01;
+        let got = m.sigma_a.eval(l);
+        assert!(
+            (got - expected).abs() < 1e-3 * expected,
+            "{l} nm: {got} vs {expected}"
+        );
+    }
+    assert!(
+        m.sigma_a.eval(450.0) > 4.0 * m.sigma_a.eval(650.0),
+        "amber absorbs blue"
+    );
+    assert!(
+        s.warnings.iter().any(|w| w.contains("thickness")),
+        "thicknessFactor is said to be ignored: {:?}",
+        s.warnings
+    );
+
+    // OBJ: Tf on glass is a filter (per unit of path), elsewhere ignored.
+    std::fs::write(
+        dir.path().join("tf.obj"),
+        "mtllib tf.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nusemtl green_glass\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("tf.mtl"),
+        "newmtl green_glass\nillum 7\nNi 1.5\nTf 0.3 0.9 0.3\n",
+    )
+    .unwrap();
+    let s = scene_in(
+        dir.path(),
+        &format!("{CAMERA}{}", shape("obj", "tf.obj", "")),
+    )
+    .unwrap();
+    let h = hit(&s, Vec3::new(0.0, 0.1, 5.0), -Vec3::Z);
+    let m = s.materials[h.material as usize]
+        .medium()
+        .expect("Tf fills the glass");
+    assert!(
+        m.sigma_a.eval(530.0) < 0.3 * m.sigma_a.eval(450.0),
+        "green glass"
+    );
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("Tf")),
+        "{:?}",
+        s.warnings
+    );
+}

@@ -398,3 +398,49 @@ fn arrays_of_the_wrong_length_are_errors() {
     ));
     assert!(e.contains("invalid length 2"), "{e}");
 }
+
+#[test]
+fn bad_media_name_the_key() {
+    let medium = |m: &str| {
+        error(&format!(
+            "{CAMERA}[materials.fog]\ntype = \"interface\"\nmedium = {m}\n[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = 1\n"
+        ))
+    };
+    let e = medium("{ scattering = 1, phase = { hg = 1.0 } }");
+    assert!(
+        e.contains("materials.fog.medium.phase.hg") && e.contains("(-1, 1)"),
+        "{e}"
+    );
+    let e =
+        medium("{ absorption = 1, attenuation_color = [0.5, 0.5, 0.5], attenuation_distance = 1 }");
+    assert!(
+        e.contains("materials.fog.medium") && e.contains("not both"),
+        "{e}"
+    );
+    let e = medium("{ attenuation_color = [0.5, 0.5, 0.5] }");
+    assert!(e.contains("go together"), "{e}");
+    let e = medium("{ attenuation_color = [0.5, 0, 0.5], attenuation_distance = 1 }");
+    assert!(
+        e.contains("attenuation_color") && e.contains("(0, 1]"),
+        "{e}"
+    );
+    let e = medium("{ absorption = -1 }");
+    assert!(
+        e.contains("materials.fog.medium.absorption") && e.contains("negative"),
+        "{e}"
+    );
+    let e = medium("{ absorption = \"D65\" }");
+    assert!(e.contains("illuminant"), "{e}");
+    let e = medium("{ scatering = 1 }");
+    assert!(e.contains("scatering"), "{e}");
+    // An interface needs its medium.
+    let e = error(&format!("{CAMERA}[materials.fog]\ntype = \"interface\"\n"));
+    assert!(e.contains("medium"), "{e}");
+    let e = error(&format!("units = 0\n{CAMERA}"));
+    assert!(e.contains("`units`"), "{e}");
+    let e = error(&format!("units = 1e10\n{CAMERA}[medium]\nabsorption = 1\n"));
+    assert!(
+        e.contains("`medium.absorption`") && e.contains("units"),
+        "{e}"
+    );
+}

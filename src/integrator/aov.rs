@@ -14,12 +14,13 @@ use glam::Vec3;
 
 use super::interface::{bsdf_at, trace, Next};
 use super::ior_stack::IorStack;
+use super::volume::{Flight, NO_SCATTERING};
 use super::{camera_ray, PathCounters};
 use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::cie::{ColourMatching, Observer};
-use crate::spectrum::{cie, SampledWavelengths, Spectrum};
+use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths, Spectrum};
 
 /// One sample's AOVs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -62,6 +63,8 @@ impl Aovs {
             &mut ray,
             &mut IorStack::default(),
             &wl,
+            &mut Flight::new(SampledSpectrum::ONE),
+            NO_SCATTERING,
             &mut counters,
         ) else {
             return AovSample::default();

@@ -31,14 +31,16 @@ use std::cell::RefCell;
 
 use glam::{Vec2, Vec3};
 
-use super::interface::{bsdf_at, scatter, trace, Next};
-use super::ior_stack::IorStack;
+use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
+use super::ior_stack::{Entry, IorStack};
 use super::light_path;
+use super::volume::{mis_divisor, Flight};
 use super::{camera_ray, lens_sample, russian_roulette, PathCounters, PixelSample};
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, TransportMode};
+use crate::medium::HenyeyGreenstein;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -66,6 +68,8 @@ enum Kind {
     /// A point on a light, or where a camera ray left the scene.
     Light,
     Surface,
+    /// A scattering event inside a medium.
+    Medium,
 }
 
 /// One vertex of a subpath.
@@ -82,6 +86,15 @@ struct Vertex {
     beta: SampledSpectrum,
     /// Surfaces only.
     bsdf: Option<Bsdf>,
+    /// Medium vertices only, with the direction back along the subpath.
+    phase: Option<HenyeyGreenstein>,
+    wo: Vec3,
+    /// The media the subpath arrived in, and (surfaces) what `trace` said
+    /// of the surface: connections start in the media on their side.
+    stack: IorStack,
+    crossing: Option<(Entry, bool)>,
+    /// The subpath's spectral-MIS density ratios up to here (`volume`).
+    r: SampledSpectrum,
     /// The light this vertex lies on (an emissive surface or a sampled
     /// light). None on a `Light` vertex: a camera ray that escaped, which
     /// sees every light at infinity at once.
@@ -104,6 +117,11 @@ impl Vertex {
             uv: Vec2::ZERO,
             beta,
             bsdf: None,
+            phase: None,
+            wo: Vec3::ZERO,
+            stack: IorStack::default(),
+            crossing: None,
+            r: SampledSpectrum::ONE,
             light: None,
             delta: false,
             pdf_fwd: 0.0,
@@ -132,7 +150,19 @@ impl Vertex {
     /// and to lights sample fresh endpoints (t = 1, s = 1), and a camera ray
     /// that escaped has no point to aim at.
     fn connectible(&self) -> bool {
-        self.kind == Kind::Surface && self.bsdf.is_some_and(|b| b.flags().has_non_specular())
+        match self.kind {
+            Kind::Surface => self.bsdf.is_some_and(|b| b.flags().has_non_specular()),
+            Kind::Medium => true,
+            _ => false,
+        }
+    }
+
+    /// The media a connection leaving this vertex towards `w` starts in.
+    fn stack_towards(&self, w: Vec3) -> IorStack {
+        match &self.bsdf {
+            Some(b) => stack_towards(&self.stack, self.crossing, b.wo(), w, self.ng),
+            None => self.stack,
+        }
     }
 
     fn dir_to(&self, v: &Vertex) -> Vec3 {
@@ -159,9 +189,10 @@ impl Vertex {
 
     /// The BSDF (or importance) value for leaving this vertex towards `next`.
     fn f(&self, next: &Vertex, mode: TransportMode) -> SampledSpectrum {
-        match &self.bsdf {
-            Some(b) => b.f(b.wo(), self.dir_to(next), mode),
-            None => SampledSpectrum::ZERO,
+        match (&self.bsdf, &self.phase) {
+            (Some(b), _) => b.f(b.wo(), self.dir_to(next), mode),
+            (None, Some(phase)) => SampledSpectrum::splat(phase.p(-self.wo, self.dir_to(next))),
+            _ => SampledSpectrum::ZERO,
         }
     }
 
@@ -184,6 +215,10 @@ impl Vertex {
                     self.dir_to(next),
                     TransportMode::Radiance,
                 ),
+                _ => 0.0,
+            },
+            Kind::Medium => match (prev, &self.phase) {
+                (Some(prev), Some(phase)) => phase.p(prev.dir_to(self), self.dir_to(next)),
                 _ => 0.0,
             },
         };
@@ -468,13 +503,66 @@ impl Walk {
         counters: &mut PathCounters,
     ) {
         let mut bounces = 0;
+        let mut flight = Flight::new(beta);
         // Product of η'² over transmissions (radiance only), which Russian
         // roulette must not mistake for a dim path.
         let mut eta_scale = 1.0f32;
         while path.len() < self.max_vertices {
             let prev = path.len() - 1;
-            let (hit, eta, medium) = match trace(scene, &mut ray, &mut stack, wl, counters) {
+            let u_flight = if scene.has_scattering() {
+                sampler.next_4d()[0]
+            } else {
+                0.0
+            };
+            let next = trace(
+                scene,
+                &mut ray,
+                &mut stack,
+                wl,
+                &mut flight,
+                u_flight,
+                counters,
+            );
+            beta = flight.beta;
+            let (hit, eta, medium) = match next {
                 Next::Surface { hit, eta, medium } => (hit, eta, medium),
+                Next::Medium { p, phase } => {
+                    let dir_in = ray.dir.normalize();
+                    let mut v = Vertex::new(Kind::Medium, p, beta);
+                    v.phase = Some(phase);
+                    v.wo = -dir_in;
+                    v.stack = stack;
+                    v.r = flight.r;
+                    v.pdf_fwd = path[prev].area_density(pdf_dir, &v, scene);
+                    path.push(v);
+                    if path.len() == self.max_vertices {
+                        break;
+                    }
+                    let [u0, u1, _, u_rr] = if bounces == 0 {
+                        u_first
+                    } else {
+                        sampler.next_4d()
+                    };
+                    bounces += 1;
+                    let (wi, pdf) = phase.sample(dir_in, (u0, u1));
+                    pdf_dir = pdf;
+                    let cur = path.len() - 1;
+                    // The phase function is symmetric: the reverse density is the same.
+                    let rev = path[cur].area_density(pdf, &path[prev], scene);
+                    path[prev].pdf_rev = rev;
+                    ray = Ray::new(p, wi);
+                    let divisor = flight.divisor(wl);
+                    if !russian_roulette(
+                        &mut flight.beta,
+                        eta_scale / divisor,
+                        bounces,
+                        self.rr_depth,
+                        u_rr,
+                    ) {
+                        break;
+                    }
+                    continue;
+                }
                 Next::Escaped => {
                     let sees_infinity = self.mode == TransportMode::Radiance
                         && scene.lights.infinite().next().is_some()
@@ -485,6 +573,7 @@ impl Walk {
                         let far =
                             2.0 * scene.sphere.radius + (ray.origin - scene.sphere.centre).length();
                         let mut v = Vertex::new(Kind::Light, ray.origin + ray.dir * far, beta);
+                        v.r = flight.r;
                         v.pdf_fwd = pdf_dir;
                         path.push(v);
                     }
@@ -495,6 +584,9 @@ impl Walk {
             let wo = -ray.dir;
             let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
             let mut v = Vertex::new(Kind::Surface, hit.p, beta);
+            v.stack = stack;
+            v.crossing = medium;
+            v.r = flight.r;
             v.p_err = hit.p_err;
             v.ng = hit.ng;
             v.uv = hit.uv;
@@ -515,7 +607,7 @@ impl Walk {
             let Some(bs) = bsdf.sample(wo, uc, (u0, u1), self.mode) else {
                 break;
             };
-            beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+            flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
             // A Dirac lobe's density is a delta in solid angle: counted as
             // 1 in both directions, its conversions to area (cos / d²) stay
             // in the ratios of `mis_weight`, where they cancel between the
@@ -545,7 +637,14 @@ impl Walk {
             // The survivors' weight keeps each strategy unbiased; the MIS
             // densities leave roulette out, which changes only how
             // strategies share a path.
-            if !russian_roulette(&mut beta, eta_scale, bounces, self.rr_depth, u_rr) {
+            let divisor = flight.divisor(wl);
+            if !russian_roulette(
+                &mut flight.beta,
+                eta_scale / divisor,
+                bounces,
+                self.rr_depth,
+                u_rr,
+            ) {
                 break;
             }
         }
@@ -602,13 +701,14 @@ fn connect(
             return none;
         }
         let origin = offset_ray_origin(qs.p, qs.p_err, qs.ng, cs.wi);
-        counters.rays += 1;
-        if scene.occluded(&Ray::towards(origin, cs.p_lens)) {
+        let shadow = Ray::towards(origin, cs.p_lens);
+        let tr = transmittance(scene, &shadow, &qs.stack_towards(cs.wi), wl, counters);
+        if tr == SampledSpectrum::ZERO {
             return none;
         }
         sampled = Some(camera);
         raster = Some(cs.raster);
-        l
+        l * tr
     } else if s == 1 {
         // A point sampled on a light, joined to a camera vertex.
         let pt = &camera_path[t - 1];
@@ -647,12 +747,12 @@ fn connect(
             Some(lp) => Ray::towards(origin, offset_ray_origin(lp.p, lp.p_err, lp.n, -ls.wi)),
             None => Ray::new(origin, ls.wi),
         };
-        counters.rays += 1;
-        if scene.occluded(&shadow) {
+        let tr = transmittance(scene, &shadow, &pt.stack_towards(ls.wi), wl, counters);
+        if tr == SampledSpectrum::ZERO {
             return none;
         }
         sampled = Some(v);
-        l
+        l * tr
     } else {
         // A shadow ray between a light vertex and a camera vertex.
         let (qs, pt) = (&light_path[s - 1], &camera_path[t - 1]);
@@ -677,17 +777,38 @@ fn connect(
         let w = pt.dir_to(qs);
         let from = offset_ray_origin(pt.p, pt.p_err, pt.ng, w);
         let to = offset_ray_origin(qs.p, qs.p_err, qs.ng, -w);
-        counters.rays += 1;
-        if scene.occluded(&Ray::towards(from, to)) {
+        let tr = transmittance(
+            scene,
+            &Ray::towards(from, to),
+            &pt.stack_towards(w),
+            wl,
+            counters,
+        );
+        if tr == SampledSpectrum::ZERO {
             return none;
         }
-        l * g
+        l * g * tr
     };
     if l == SampledSpectrum::ZERO {
         return none;
     }
     let w = mis_weight(scene, light_path, camera_path, sampled.as_ref(), s, t);
-    Contribution { l: l * w, raster }
+    // Spectral MIS over both subpaths' free flights: their densities multiply.
+    let r_light = if s > 1 {
+        light_path[s - 1].r
+    } else {
+        SampledSpectrum::ONE
+    };
+    let r_camera = if t > 1 {
+        camera_path[t - 1].r
+    } else {
+        SampledSpectrum::ONE
+    };
+    let divisor = mis_divisor(r_light * r_camera, wl);
+    Contribution {
+        l: l * (w / divisor),
+        raster,
+    }
 }
 
 /// The power-heuristic weight of strategy (s, t) among every strategy that

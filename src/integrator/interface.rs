@@ -5,11 +5,13 @@
 
 use glam::{Vec3, Vec4};
 
-use super::ior_stack::{Crossing, IorStack, Medium};
+use super::ior_stack::{Crossing, Entry, IorStack};
+use super::volume::{self, Flight};
 use super::PathCounters;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, ShadingGeometry};
+use crate::medium::HenyeyGreenstein;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -28,18 +30,20 @@ pub enum Meeting {
     /// transmission enters (`true`) or leaves (`false`).
     Real {
         eta: SampledSpectrum,
-        medium: Option<(Medium, bool)>,
+        medium: Option<(Entry, bool)>,
     },
 }
 
 /// Where a ray goes next.
 #[derive(Clone, Copy, Debug)]
 pub enum Next {
+    /// The path scattered inside a medium, at `p`, by `phase`.
+    Medium { p: Vec3, phase: HenyeyGreenstein },
     /// A real surface, and what it is to the path (see [`Meeting::Real`]).
     Surface {
         hit: SurfaceHit,
         eta: SampledSpectrum,
-        medium: Option<(Medium, bool)>,
+        medium: Option<(Entry, bool)>,
     },
     /// The ray left the scene.
     Escaped,
@@ -48,18 +52,34 @@ pub enum Next {
 }
 
 /// Traces `ray` to the next real surface, crossing false intersections
-/// (the stack enters and leaves their media). On return `ray` is the
-/// segment that reached the surface or escaped; every ray traced counts.
+/// and interfaces (the stack enters and leaves their objects). On return
+/// `ray` is the segment that reached the surface, escaped or scattered;
+/// every ray traced counts. In a medium the path's throughput `flight`
+/// attenuates (Beer–Lambert), and in a scattering one the path may
+/// scatter: `u_flight` draws the free-flight distance (`volume::fly`).
 pub fn trace(
     scene: &Scene,
     ray: &mut Ray,
     stack: &mut IorStack,
     wl: &SampledWavelengths,
+    flight: &mut Flight,
+    u_flight: f32,
     counters: &mut PathCounters,
 ) -> Next {
+    let mut optical_depth = volume::optical_depth(u_flight);
     for _ in 0..=MAX_FALSE_INTERSECTIONS {
         counters.rays += 1;
-        let Some(hit) = scene.intersect(ray) else {
+        let hit = scene.intersect(ray);
+        if let Some(m) = scene.medium_in(stack) {
+            let speed = ray.dir.length();
+            let d = hit.map_or(f32::INFINITY, |h| h.t * speed);
+            if let Some(t) = volume::fly(m, wl, d, &mut optical_depth, flight) {
+                let p = ray.origin + ray.dir * (t / speed);
+                ray.t_max = t / speed;
+                return Next::Medium { p, phase: m.phase };
+            }
+        }
+        let Some(hit) = hit else {
             return Next::Escaped;
         };
         match meet(scene, &hit, ray.dir, stack, wl, counters) {
@@ -73,6 +93,83 @@ pub fn trace(
         }
     }
     Next::Lost
+}
+
+/// What reaches the end of the segment `shadow` (from a point whose media
+/// are `stack`): zero if a surface blocks it, else the transmittance of
+/// the media it crosses. Interfaces and false intersections let it through
+/// (they do not refract); every other surface blocks it.
+pub fn transmittance(
+    scene: &Scene,
+    shadow: &Ray,
+    stack: &IorStack,
+    wl: &SampledWavelengths,
+    counters: &mut PathCounters,
+) -> SampledSpectrum {
+    counters.rays += 1;
+    if !scene.has_media() {
+        return if scene.occluded(shadow) {
+            SampledSpectrum::ZERO
+        } else {
+            SampledSpectrum::ONE
+        };
+    }
+    let target = shadow.origin + shadow.dir;
+    let mut stack = *stack;
+    let mut ray = *shadow;
+    let mut tr = SampledSpectrum::ONE;
+    for i in 0..=MAX_FALSE_INTERSECTIONS {
+        if i > 0 {
+            counters.rays += 1;
+        }
+        let hit = scene.intersect(&ray);
+        if let Some(m) = scene.medium_in(&stack) {
+            let d = hit.map_or(ray.t_max, |h| h.t) * ray.dir.length();
+            tr *= crate::medium::transmittance(m.coefficients(wl).sigma_t(), d);
+            if tr == SampledSpectrum::ZERO {
+                return tr;
+            }
+        }
+        let Some(hit) = hit else {
+            return tr;
+        };
+        let material = &scene.materials[hit.material as usize];
+        if !material.bounds_volume() {
+            return SampledSpectrum::ZERO;
+        }
+        let e = Entry {
+            material: hit.material,
+            priority: material.priority(),
+        };
+        let entering = ray.dir.dot(hit.ng) < 0.0;
+        if !material.is_interface() && stack.classify(e, entering) != Crossing::False {
+            return SampledSpectrum::ZERO;
+        }
+        move_through(&mut stack, e, entering, counters);
+        let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir);
+        ray = if shadow.t_max.is_finite() {
+            Ray::towards(origin, target)
+        } else {
+            Ray::new(origin, shadow.dir)
+        };
+    }
+    SampledSpectrum::ZERO
+}
+
+/// The media on the side of a surface that `wi` leaves into: `stack` as
+/// the path arrived, moved through the surface if `wi` crosses it.
+#[inline]
+pub fn stack_towards(
+    stack: &IorStack,
+    medium: Option<(Entry, bool)>,
+    wo: Vec3,
+    wi: Vec3,
+    ng: Vec3,
+) -> IorStack {
+    let mut s = *stack;
+    let mut ignored = PathCounters::default();
+    scatter(&mut s, medium, wo, wi, ng, &mut ignored);
+    s
 }
 
 /// The BSDF at a real surface `hit`, met by a path arriving from `wo`
@@ -115,17 +212,22 @@ pub fn meet(
     counters: &mut PathCounters,
 ) -> Meeting {
     let material = &scene.materials[hit.material as usize];
-    if material.ior().is_none() {
+    if !material.bounds_volume() {
         return Meeting::Real {
             eta: SampledSpectrum::ONE,
             medium: None,
         };
     }
-    let m = Medium {
+    let m = Entry {
         material: hit.material,
         priority: material.priority(),
     };
     let entering = dir.dot(hit.ng) < 0.0;
+    if material.is_interface() {
+        // Index-matched: the path enters or leaves its medium, unbent.
+        move_through(stack, m, entering, counters);
+        return Meeting::Pass;
+    }
     match stack.classify(m, entering) {
         Crossing::False => {
             move_through(stack, m, entering, counters);
@@ -147,7 +249,7 @@ pub fn meet(
 #[inline]
 pub fn scatter(
     stack: &mut IorStack,
-    medium: Option<(Medium, bool)>,
+    medium: Option<(Entry, bool)>,
     wo: Vec3,
     wi: Vec3,
     ng: Vec3,
@@ -161,7 +263,7 @@ pub fn scatter(
 }
 
 #[inline]
-fn move_through(stack: &mut IorStack, m: Medium, entering: bool, counters: &mut PathCounters) {
+fn move_through(stack: &mut IorStack, m: Entry, entering: bool, counters: &mut PathCounters) {
     if entering {
         if !stack.push(m) {
             counters.stack_overflows += 1;
@@ -203,14 +305,14 @@ pub fn media_at(
             break;
         };
         let material = &scene.materials[hit.material as usize];
-        if material.ior().is_some() && !seen[..n_seen].contains(&hit.material) {
+        if material.bounds_volume() && !seen[..n_seen].contains(&hit.material) {
             if n_seen == seen.len() {
                 break;
             }
             seen[n_seen] = hit.material;
             n_seen += 1;
             if dir.dot(hit.ng) > 0.0 && n_inside < inside.len() {
-                inside[n_inside] = Some(Medium {
+                inside[n_inside] = Some(Entry {
                     material: hit.material,
                     priority: material.priority(),
                 });

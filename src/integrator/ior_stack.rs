@@ -15,15 +15,17 @@
 /// Media a ray can be inside at once; deeper nesting is counted and ignored.
 pub const CAPACITY: usize = 8;
 
+/// One object the ray is inside: its material (a dielectric or an
+/// interface) and that material's priority.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Medium {
+pub struct Entry {
     pub material: u32,
     pub priority: i32,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
 pub struct IorStack {
-    entries: [Option<Medium>; CAPACITY],
+    entries: [Option<Entry>; CAPACITY],
     len: usize,
 }
 
@@ -48,7 +50,7 @@ impl IorStack {
 
     /// Enters a medium. False (and no change) when the stack is full.
     #[must_use]
-    pub fn push(&mut self, medium: Medium) -> bool {
+    pub fn push(&mut self, medium: Entry) -> bool {
         if self.len == CAPACITY {
             return false;
         }
@@ -77,7 +79,7 @@ impl IorStack {
         true
     }
 
-    fn iter(&self) -> impl DoubleEndedIterator<Item = Medium> + '_ {
+    fn iter(&self) -> impl DoubleEndedIterator<Item = Entry> + '_ {
         self.entries[..self.len]
             .iter()
             .map(|m| m.expect("entries below len are set"))
@@ -85,13 +87,13 @@ impl IorStack {
 
     /// The medium the ray travels in: the highest priority; among equals,
     /// the most recently entered. None: the ambient medium.
-    pub fn active(&self) -> Option<Medium> {
+    pub fn active(&self) -> Option<Entry> {
         self.active_without(None)
     }
 
-    fn active_without(&self, skip: Option<u32>) -> Option<Medium> {
+    fn active_without(&self, skip: Option<u32>) -> Option<Entry> {
         let mut skipped = false;
-        let mut best: Option<Medium> = None;
+        let mut best: Option<Entry> = None;
         for m in self.iter().rev() {
             if !skipped && Some(m.material) == skip {
                 skipped = true;
@@ -106,7 +108,7 @@ impl IorStack {
 
     /// Classifies a hit on the surface of `medium`, `entering` its volume
     /// (against the surface normal) or leaving it.
-    pub fn classify(&self, medium: Medium, entering: bool) -> Crossing {
+    pub fn classify(&self, medium: Entry, entering: bool) -> Crossing {
         let active = self.active();
         if entering {
             if active.is_some_and(|a| a.priority > medium.priority) {
@@ -142,19 +144,19 @@ impl IorStack {
 mod tests {
     use super::*;
 
-    const GLASS: Medium = Medium {
+    const GLASS: Entry = Entry {
         material: 1,
         priority: 2,
     };
-    const WATER: Medium = Medium {
+    const WATER: Entry = Entry {
         material: 2,
         priority: 1,
     };
-    const ICE: Medium = Medium {
+    const ICE: Entry = Entry {
         material: 3,
         priority: 3,
     };
-    const LENS: Medium = Medium {
+    const LENS: Entry = Entry {
         material: 4,
         priority: 0,
     };
@@ -203,7 +205,7 @@ mod tests {
         // inside water it is a false intersection...
         assert_eq!(s.classify(LENS, true), Crossing::False);
         // ...while a lens of equal or higher priority is real, water outside.
-        let lens_high = Medium {
+        let lens_high = Entry {
             material: 4,
             priority: 5,
         };
@@ -226,11 +228,11 @@ mod tests {
 
     #[test]
     fn intersecting_volumes_exit_out_of_order() {
-        let a = Medium {
+        let a = Entry {
             material: 10,
             priority: 0,
         };
-        let b = Medium {
+        let b = Entry {
             material: 11,
             priority: 0,
         };
@@ -318,12 +320,12 @@ mod tests {
     fn overflow_is_refused_not_a_panic() {
         let mut s = IorStack::default();
         for i in 0..CAPACITY as u32 {
-            assert!(s.push(Medium {
+            assert!(s.push(Entry {
                 material: i,
                 priority: 0
             }));
         }
-        assert!(!s.push(Medium {
+        assert!(!s.push(Entry {
             material: 99,
             priority: 0
         }));

@@ -6,13 +6,15 @@
 
 use glam::Vec3;
 
-use super::interface::{bsdf_at, media_at, scatter, trace, Next};
-use super::ior_stack::IorStack;
+use super::interface::{bsdf_at, media_at, scatter, stack_towards, trace, transmittance, Next};
+use super::ior_stack::{Entry, IorStack};
+use super::volume::Flight;
 use super::{russian_roulette, PathCounters};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightLeSample;
 use crate::material::{Bsdf, TransportMode};
+use crate::medium::HenyeyGreenstein;
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -69,25 +71,88 @@ pub fn start(
     })
 }
 
-/// A surface a light path reached, offered to `walk`'s `visit`.
+/// Where a light path scattered.
+#[derive(Clone, Copy)]
+pub enum Scatterer<'a> {
+    Surface {
+        hit: &'a SurfaceHit,
+        bsdf: &'a Bsdf,
+        /// What `trace` said of the surface (the dielectric it bounds).
+        medium: Option<(Entry, bool)>,
+    },
+    /// A point inside a medium, with its phase function.
+    Medium { p: Vec3, phase: HenyeyGreenstein },
+}
+
+/// A vertex a light path reached, offered to `walk`'s `visit`.
 pub struct LightVertex<'a> {
-    pub hit: &'a SurfaceHit,
+    pub at: Scatterer<'a>,
     /// Towards where the path came from.
     pub wo: Vec3,
-    pub bsdf: &'a Bsdf,
-    /// The importance arriving here.
+    /// The importance arriving here (spectral MIS applied).
     pub beta: SampledSpectrum,
+    /// The media the path arrived in.
+    pub stack: &'a IorStack,
     pub wl: &'a SampledWavelengths,
-    /// Surfaces met so far, this one included.
+    /// Vertices met so far (surfaces and scattering events), this one included.
     pub depth: u32,
     pub sampler: &'a mut Sampler,
     pub counters: &'a mut PathCounters,
 }
 
-/// Traces a light path from `start` through up to `max_depth` surfaces,
-/// carrying importance, and calls `visit` at each before sampling its BSDF
-/// (one 4D point a bounce: direction, lobe, Russian roulette after
-/// `rr_depth`). `wl` may lose its secondaries on the way.
+impl LightVertex<'_> {
+    /// What arrives at the camera sample `cs` from this vertex: the
+    /// importance times the scattering towards the camera and the
+    /// transmittance of the way there (zero when blocked or when a Dirac
+    /// lobe cannot turn that way).
+    pub fn towards_camera(
+        &mut self,
+        scene: &Scene,
+        cs: &crate::camera::CameraSample,
+    ) -> SampledSpectrum {
+        let (f, origin, stack) = match self.at {
+            Scatterer::Surface { hit, bsdf, medium } => {
+                let f = bsdf.f(self.wo, cs.wi, TransportMode::Importance) * bsdf.cos_theta(cs.wi);
+                let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, cs.wi);
+                (
+                    f,
+                    origin,
+                    stack_towards(self.stack, medium, self.wo, cs.wi, hit.ng),
+                )
+            }
+            Scatterer::Medium { p, phase } => {
+                let f = SampledSpectrum::splat(phase.p(-self.wo, cs.wi));
+                (f, p, *self.stack)
+            }
+        };
+        if f == SampledSpectrum::ZERO {
+            return f;
+        }
+        let tr = transmittance(
+            scene,
+            &Ray::towards(origin, cs.p_lens),
+            &stack,
+            self.wl,
+            self.counters,
+        );
+        self.beta * f * tr * cs.weight
+    }
+
+    /// The point of the vertex.
+    pub fn p(&self) -> Vec3 {
+        match self.at {
+            Scatterer::Surface { hit, .. } => hit.p,
+            Scatterer::Medium { p, .. } => p,
+        }
+    }
+}
+
+/// Traces a light path from `start` through up to `max_depth` vertices
+/// (surfaces and scattering events in media), carrying importance, and
+/// calls `visit` at each before sampling its BSDF or phase function (one
+/// 4D point a bounce: direction, lobe, Russian roulette after `rr_depth`;
+/// one more before each segment in scenes with scattering media, for the
+/// free flight). `wl` may lose its secondaries on the way.
 #[allow(clippy::too_many_arguments)]
 pub fn walk(
     scene: &Scene,
@@ -99,37 +164,78 @@ pub fn walk(
     counters: &mut PathCounters,
     mut visit: impl FnMut(LightVertex<'_>),
 ) {
-    let (mut beta, mut ray, mut stack) = (start.beta, start.ray, start.stack);
+    let (mut ray, mut stack) = (start.ray, start.stack);
+    let mut flight = Flight::new(start.beta);
     let mut depth = 0;
     while depth < max_depth {
-        let Next::Surface { hit, eta, medium } = trace(scene, &mut ray, &mut stack, wl, counters)
-        else {
-            break;
+        let u_flight = if scene.has_scattering() {
+            sampler.next_4d()[0]
+        } else {
+            0.0
         };
-        depth += 1;
-        let wo = -ray.dir;
-        let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
-        visit(LightVertex {
-            hit: &hit,
-            wo,
-            bsdf: &bsdf,
-            beta,
+        match trace(
+            scene,
+            &mut ray,
+            &mut stack,
             wl,
-            depth,
-            sampler: &mut *sampler,
-            counters: &mut *counters,
-        });
+            &mut flight,
+            u_flight,
+            counters,
+        ) {
+            Next::Surface { hit, eta, medium } => {
+                depth += 1;
+                let wo = -ray.dir;
+                let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
+                visit(LightVertex {
+                    at: Scatterer::Surface {
+                        hit: &hit,
+                        bsdf: &bsdf,
+                        medium,
+                    },
+                    wo,
+                    beta: flight.weight(wl),
+                    stack: &stack,
+                    wl,
+                    depth,
+                    sampler: &mut *sampler,
+                    counters: &mut *counters,
+                });
 
-        let [u0, u1, uc, u_rr] = sampler.next_4d();
-        let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Importance) else {
-            break;
-        };
-        beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-        ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
-        scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
-        // Importance is not scaled at refraction: no η'² to undo.
-        if !russian_roulette(&mut beta, 1.0, depth, rr_depth, u_rr) {
-            break;
+                let [u0, u1, uc, u_rr] = sampler.next_4d();
+                let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Importance) else {
+                    break;
+                };
+                flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+                ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
+                scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
+                // Importance is not scaled at refraction: no η'² to undo.
+                let divisor = flight.divisor(wl);
+                if !russian_roulette(&mut flight.beta, 1.0 / divisor, depth, rr_depth, u_rr) {
+                    break;
+                }
+            }
+            Next::Medium { p, phase } => {
+                depth += 1;
+                let dir_in = ray.dir.normalize();
+                visit(LightVertex {
+                    at: Scatterer::Medium { p, phase },
+                    wo: -dir_in,
+                    beta: flight.weight(wl),
+                    stack: &stack,
+                    wl,
+                    depth,
+                    sampler: &mut *sampler,
+                    counters: &mut *counters,
+                });
+                let [u0, u1, _, u_rr] = sampler.next_4d();
+                let (wi, _) = phase.sample(dir_in, (u0, u1));
+                ray = Ray::new(p, wi);
+                let divisor = flight.divisor(wl);
+                if !russian_roulette(&mut flight.beta, 1.0 / divisor, depth, rr_depth, u_rr) {
+                    break;
+                }
+            }
+            Next::Escaped | Next::Lost => break,
         }
     }
 }

@@ -13,13 +13,13 @@
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::light_path;
+use super::interface::transmittance;
+use super::light_path::{self, Scatterer};
 use super::{lens_sample, PathCounters, PixelSample};
 use crate::camera::CameraSample;
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -73,11 +73,14 @@ impl LightTracer {
         if let Some(cs) = scene.camera.sample_wi(lp.p, u_lens).filter(|_| seen) {
             let le = light.l(lp.uv, cs.wi, &wl);
             let cos = lp.n.dot(cs.wi).abs();
-            if le != SampledSpectrum::ZERO
-                && self.visible(scene, lp.p, lp.p_err, lp.n, &cs, counters)
-            {
-                let l = le * (cs.weight * cos / (start.pmf * pdf_pos));
-                splat(tile, scene, &cs, l, &wl);
+            if le != SampledSpectrum::ZERO {
+                let origin = offset_ray_origin(lp.p, lp.p_err, lp.n, cs.wi);
+                let shadow = Ray::towards(origin, cs.p_lens);
+                let tr = transmittance(scene, &shadow, &start.stack, &wl, counters);
+                let l = le * tr * (cs.weight * cos / (start.pmf * pdf_pos));
+                if l != SampledSpectrum::ZERO {
+                    splat(tile, scene, &cs, l, &wl);
+                }
             }
         }
 
@@ -89,42 +92,24 @@ impl LightTracer {
             self.rr_depth,
             sampler,
             counters,
-            |v| {
+            |mut v| {
                 // Connect to the camera (Dirac lobes cannot turn towards it).
-                if v.bsdf.is_specular() {
-                    return;
+                if let Scatterer::Surface { bsdf, .. } = v.at {
+                    if bsdf.is_specular() {
+                        return;
+                    }
                 }
                 let u_lens = lens_sample(scene, v.sampler);
-                let Some(cs) = scene.camera.sample_wi(v.hit.p, u_lens) else {
+                let Some(cs) = scene.camera.sample_wi(v.p(), u_lens) else {
                     return;
                 };
-                let f = v.bsdf.f(v.wo, cs.wi, TransportMode::Importance);
-                let hit = v.hit;
-                if f != SampledSpectrum::ZERO
-                    && self.visible(scene, hit.p, hit.p_err, hit.ng, &cs, v.counters)
-                {
-                    let l = v.beta * f * (v.bsdf.cos_theta(cs.wi) * cs.weight);
+                let l = v.towards_camera(scene, &cs);
+                if l != SampledSpectrum::ZERO {
                     splat(tile, scene, &cs, l, v.wl);
                 }
             },
         );
         none(wl)
-    }
-
-    /// Whether nothing lies between the point and the camera.
-    fn visible(
-        &self,
-        scene: &Scene,
-        p: Vec3,
-        p_err: Vec3,
-        n: Vec3,
-        cs: &CameraSample,
-        counters: &mut PathCounters,
-    ) -> bool {
-        let origin = offset_ray_origin(p, p_err, n, cs.wi);
-        let shadow = Ray::towards(origin, cs.p_lens);
-        counters.rays += 1;
-        !scene.occluded(&shadow)
     }
 }
 

@@ -17,6 +17,7 @@ mod light_path;
 mod light_tracer;
 mod path;
 mod sppm;
+pub mod volume;
 
 use serde::Deserialize;
 

@@ -3,11 +3,13 @@
 //! (power heuristic), and Russian roulette. Each path carries the stack of
 //! dielectric media it is inside.
 
-use super::interface::{bsdf_at, scatter, trace, Next};
-use super::ior_stack::IorStack;
+use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
+use super::ior_stack::{Entry, IorStack};
+use super::volume::Flight;
 use super::{power_heuristic, russian_roulette, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
+use crate::light::LightPoint;
 use crate::material::{Bsdf, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
@@ -24,6 +26,9 @@ pub struct Stop<'a> {
     pub depth: u32,
     pub sampler: &'a mut Sampler,
     pub counters: &'a mut PathCounters,
+    /// The media the path arrived in, and what `trace` said of the surface.
+    pub stack: &'a IorStack,
+    pub medium: Option<(Entry, bool)>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,7 +78,7 @@ impl PathTracer {
         mut stop: impl FnMut(Stop<'_>) -> Option<SampledSpectrum>,
     ) -> SampledSpectrum {
         let mut l = SampledSpectrum::ZERO;
-        let mut beta = SampledSpectrum::ONE;
+        let mut flight = Flight::new(SampledSpectrum::ONE);
         // The camera ray sees emitters as a specular bounce would: no light sampling competes.
         let mut specular = true;
         let mut prev_bsdf_pdf = 0.0;
@@ -83,8 +88,63 @@ impl PathTracer {
         // denser medium, which Russian roulette must not mistake for a dim path.
         let mut eta_scale = 1.0f32;
         loop {
-            let (hit, eta, medium) = match trace(scene, &mut ray, &mut stack, wl, counters) {
+            // Scenes with scattering media draw a free flight per segment
+            // (only then, so other scenes keep their sample dimensions).
+            let u_flight = if scene.has_scattering() {
+                sampler.next_4d()[0]
+            } else {
+                0.0
+            };
+            let next = trace(
+                scene,
+                &mut ray,
+                &mut stack,
+                wl,
+                &mut flight,
+                u_flight,
+                counters,
+            );
+            let (hit, eta, medium) = match next {
                 Next::Surface { hit, eta, medium } => (hit, eta, medium),
+                Next::Medium { p, phase } => {
+                    if depth == self.max_depth {
+                        break;
+                    }
+                    depth += 1;
+                    let dir_in = ray.dir.normalize();
+                    if self.strategy != Strategy::Bsdf {
+                        let direct = self.sample_direct_from(
+                            scene,
+                            p,
+                            |wi| {
+                                let f = phase.p(dir_in, wi);
+                                (SampledSpectrum::splat(f), f)
+                            },
+                            |wi, to| match to {
+                                Some(lp) => {
+                                    Ray::towards(p, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi))
+                                }
+                                None => Ray::new(p, wi),
+                            },
+                            |_| stack,
+                            wl,
+                            sampler,
+                            counters,
+                        );
+                        l += flight.weight(wl) * direct;
+                    } else {
+                        sampler.skip_4d();
+                    }
+                    let [u0, u1, _, u_rr] = sampler.next_4d();
+                    let (wi, pdf) = phase.sample(dir_in, (u0, u1));
+                    specular = false;
+                    prev_bsdf_pdf = pdf;
+                    ray = Ray::new(p, wi);
+                    if !self.roulette(&mut flight, wl, eta_scale, depth, u_rr) {
+                        break;
+                    }
+                    continue;
+                }
                 Next::Escaped => {
                     // Only lights at infinity are seen.
                     for (i, light) in scene.lights.infinite() {
@@ -92,7 +152,7 @@ impl PathTracer {
                         let weight = self.emission_weight(specular, prev_bsdf_pdf, || {
                             scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None)
                         });
-                        l += beta * le * weight;
+                        l += flight.weight(wl) * le * weight;
                     }
                     break;
                 }
@@ -107,7 +167,7 @@ impl PathTracer {
                     let weight = self.emission_weight(specular, prev_bsdf_pdf, || {
                         scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p))
                     });
-                    l += beta * le * weight;
+                    l += flight.weight(wl) * le * weight;
                 }
             }
 
@@ -125,14 +185,19 @@ impl PathTracer {
                 depth,
                 sampler: &mut *sampler,
                 counters: &mut *counters,
+                stack: &stack,
+                medium,
             };
             if let Some(reflected) = stop(at) {
-                l += beta * reflected;
+                l += flight.weight(wl) * reflected;
                 break;
             }
 
             if self.strategy != Strategy::Bsdf && !bsdf.is_specular() {
-                l += beta * self.sample_direct(scene, &hit, wo, &bsdf, wl, sampler, counters);
+                let direct = self.sample_direct(
+                    scene, &hit, wo, &bsdf, &stack, medium, wl, sampler, counters,
+                );
+                l += flight.weight(wl) * direct;
             } else {
                 // Keep the dimensions of later bounces aligned across samples.
                 sampler.skip_4d();
@@ -144,7 +209,7 @@ impl PathTracer {
             let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Radiance) else {
                 break;
             };
-            beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+            flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
             specular = bs.is_specular();
             prev_bsdf_pdf = bs.pdf;
             ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
@@ -154,11 +219,31 @@ impl PathTracer {
                 eta_scale *= bs.eta * bs.eta;
             }
 
-            if !russian_roulette(&mut beta, eta_scale, depth, self.rr_depth, u_rr) {
+            if !self.roulette(&mut flight, wl, eta_scale, depth, u_rr) {
                 break;
             }
         }
         l
+    }
+
+    /// Russian roulette on what the path carries (β over its spectral-MIS
+    /// divisor).
+    fn roulette(
+        &self,
+        flight: &mut Flight,
+        wl: &SampledWavelengths,
+        eta_scale: f32,
+        depth: u32,
+        u_rr: f32,
+    ) -> bool {
+        let divisor = flight.divisor(wl);
+        russian_roulette(
+            &mut flight.beta,
+            eta_scale / divisor,
+            depth,
+            self.rr_depth,
+            u_rr,
+        )
     }
 
     /// The weight of emission that the path found by BSDF sampling: all of
@@ -180,8 +265,9 @@ impl PathTracer {
         }
     }
 
-    /// Next-event estimation: light arriving directly from a point sampled on
-    /// a light, weighted against BSDF sampling when the strategy is MIS.
+    /// Next-event estimation at a surface `hit` seen from `wo`, which the
+    /// path reached with the media `stack` (`medium`: what `trace` said of
+    /// the surface).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn sample_direct(
         &self,
@@ -189,6 +275,47 @@ impl PathTracer {
         hit: &SurfaceHit,
         wo: glam::Vec3,
         bsdf: &Bsdf,
+        stack: &IorStack,
+        medium: Option<(Entry, bool)>,
+        wl: &SampledWavelengths,
+        sampler: &mut Sampler,
+        counters: &mut PathCounters,
+    ) -> SampledSpectrum {
+        self.sample_direct_from(
+            scene,
+            hit.p,
+            |wi| {
+                let e = bsdf.eval(wo, wi, TransportMode::Radiance);
+                (e.f * bsdf.cos_theta(wi), e.pdf)
+            },
+            |wi, to| {
+                let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, wi);
+                match to {
+                    Some(lp) => Ray::towards(origin, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi)),
+                    None => Ray::new(origin, wi),
+                }
+            },
+            |wi| stack_towards(stack, medium, wo, wi, hit.ng),
+            wl,
+            sampler,
+            counters,
+        )
+    }
+
+    /// Next-event estimation: light arriving directly at `p` from a point
+    /// sampled on a light, weighted against BSDF (or phase) sampling when
+    /// the strategy is MIS. `scattering(wi)` gives the value (BSDF times
+    /// cosine, or the phase function) and its density; `shadow(wi, point)`
+    /// the ray to the light (its point, or a direction to infinity);
+    /// `stack` the media that ray starts in.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn sample_direct_from(
+        &self,
+        scene: &Scene,
+        p: glam::Vec3,
+        scattering: impl Fn(glam::Vec3) -> (SampledSpectrum, f32),
+        shadow: impl Fn(glam::Vec3, Option<LightPoint>) -> Ray,
+        stack: impl Fn(glam::Vec3) -> IorStack,
         wl: &SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
@@ -201,30 +328,24 @@ impl PathTracer {
             return SampledSpectrum::ZERO;
         };
         let light = scene.lights.get(light);
-        let Some(ls) = light.sample_li(hit.p, u_point, wl) else {
+        let Some(ls) = light.sample_li(p, u_point, wl) else {
             return SampledSpectrum::ZERO;
         };
         let wi = ls.wi;
-        let e = bsdf.eval(wo, wi, TransportMode::Radiance);
-        let f = e.f * bsdf.cos_theta(wi);
+        let (f, scattering_pdf) = scattering(wi);
         if f == SampledSpectrum::ZERO {
             return SampledSpectrum::ZERO;
         }
-        let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, wi);
-        let shadow = match ls.point {
-            Some(lp) => Ray::towards(origin, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi)),
-            None => Ray::new(origin, wi),
-        };
-        counters.rays += 1;
-        if scene.occluded(&shadow) {
+        let tr = transmittance(scene, &shadow(wi, ls.point), &stack(wi), wl, counters);
+        if tr == SampledSpectrum::ZERO {
             return SampledSpectrum::ZERO;
         }
         let light_pdf = pmf * ls.pdf;
         let weight = if self.strategy == Strategy::Mis && !light.is_delta() {
-            power_heuristic(light_pdf, e.pdf)
+            power_heuristic(light_pdf, scattering_pdf)
         } else {
             1.0
         };
-        f * ls.li * (weight / light_pdf)
+        f * tr * ls.li * (weight / light_pdf)
     }
 }

@@ -33,7 +33,7 @@ use std::sync::OnceLock;
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::light_path;
+use super::light_path::{self, Scatterer};
 use super::path::{PathTracer, Stop};
 use super::{camera_ray, PathCounters, PixelSample, Strategy};
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
@@ -314,7 +314,12 @@ impl Sppm {
             sampler,
             counters,
             |v| {
-                if v.depth < 2 || !v.bsdf.flags().contains(BsdfFlags::DIFFUSE) {
+                // Photons stay on diffuse surfaces (not in media: the
+                // camera paths find light scattered there themselves).
+                let Scatterer::Surface { hit, bsdf, .. } = v.at else {
+                    return;
+                };
+                if v.depth < 2 || !bsdf.flags().contains(BsdfFlags::DIFFUSE) {
                     return;
                 }
                 let mut weight = Vec4::ZERO;
@@ -326,7 +331,7 @@ impl Sppm {
                 if weight.is_finite() && weight != Vec4::ZERO {
                     v.counters.photons_stored += 1;
                     out.push(Photon {
-                        p: v.hit.p,
+                        p: hit.p,
                         wi: v.wo,
                         lambda: v.wl.lambda,
                         weight,
@@ -370,6 +375,8 @@ impl Sppm {
                 at.hit,
                 at.wo,
                 at.bsdf,
+                at.stack,
+                at.medium,
                 at.wl,
                 at.sampler,
                 at.counters,

@@ -18,6 +18,9 @@ pub struct DielectricLobe {
     /// Rough and dispersive: keep all wavelengths, each weighted by the
     /// average density over the four (Wilkie et al. 2014, hero MIS).
     spectral_mis: bool,
+    /// Multiplies transmission at each crossing (glTF's base colour on a
+    /// transmissive material); 1 for clear glass.
+    tint: SampledSpectrum,
 }
 
 /// Refracts `wi` through a surface with normal `n` (either side) and relative
@@ -55,7 +58,15 @@ impl DielectricLobe {
             eta,
             ggx,
             spectral_mis: is_dispersive(eta) && !ggx.is_smooth() && secondaries_alive,
+            tint: SampledSpectrum::ONE,
         }
+    }
+
+    /// The lobe with its transmission multiplied by `tint` (in [0, 1]: a
+    /// filter at the surface, symmetric in both directions).
+    pub fn tinted(mut self, tint: SampledSpectrum) -> Self {
+        self.tint = tint;
+        self
     }
 
     pub fn is_specular(&self) -> bool {
@@ -135,8 +146,12 @@ impl DielectricLobe {
         for k in 0..4 {
             (f[k], pdf[k]) = self.rough(wo, wi, self.eta[k], mode);
         }
+        let mut f = SampledSpectrum::from_array(f);
+        if wo.z * wi.z < 0.0 {
+            f *= self.tint;
+        }
         BsdfEval {
-            f: SampledSpectrum::from_array(f),
+            f,
             pdf: self.combined_pdf(SampledSpectrum::from_array(pdf)),
         }
     }
@@ -179,7 +194,7 @@ impl DielectricLobe {
                 .map(|e| (1.0 - fresnel::dielectric(wo.z, e)) / wi.z.abs() / scale);
             return Some(LobeSample {
                 wi,
-                f: SampledSpectrum::from_array(f),
+                f: SampledSpectrum::from_array(f) * self.tint,
                 pdf: 1.0 - r,
                 flags: BsdfFlags::TRANSMISSION | BsdfFlags::SPECULAR,
                 eta: etap,

@@ -23,6 +23,7 @@ pub use ior::Ior;
 pub use pbr::PbrLobe;
 
 use crate::geometry::Frame;
+use crate::medium::Medium;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 use crate::texture::TextureRef;
 
@@ -86,8 +87,19 @@ pub enum Material {
         alpha: f32,
     },
     /// A transparent dielectric; `priority` resolves overlapping volumes
-    /// (higher wins, Schmidt & Budge 2002).
-    Dielectric { ior: Ior, alpha: f32, priority: i32 },
+    /// (higher wins, Schmidt & Budge 2002); `medium` fills its inside;
+    /// `tint` filters what crosses the surface (glTF's base colour).
+    Dielectric {
+        ior: Ior,
+        alpha: f32,
+        priority: i32,
+        medium: Option<Box<Medium>>,
+        tint: Option<Box<Reflectance>>,
+    },
+    /// An index-matched boundary around a medium (fog, smoke): rays cross
+    /// it without scattering or refracting, entering or leaving `medium`.
+    /// Its inside has the index of the ambient medium (n = 1).
+    Interface { priority: i32, medium: Box<Medium> },
     /// glTF metallic-roughness (imported assets).
     Pbr(Box<PbrMaterial>),
 }
@@ -145,14 +157,33 @@ impl Material {
                 let lobe = ConductorLobe::new(eta.sample(wl), k.sample(wl), *alpha);
                 Bsdf::new(frame, ng, Lobe::Conductor(lobe), geom.wo)
             }
-            Material::Dielectric { alpha, .. } => {
+            Material::Interface { .. } => {
+                // Paths cross interfaces without scattering (`integrator::
+                // interface::meet`); should one be shaded, it is what it
+                // is: a smooth boundary of relative index 1, which
+                // transmits everything straight on.
+                let lobe = DielectricLobe::new(SampledSpectrum::ONE, 0.0, true);
+                Bsdf::new(
+                    Frame::from_normal(geom.ng),
+                    geom.ng,
+                    Lobe::Dielectric(lobe),
+                    geom.wo,
+                )
+            }
+            Material::Dielectric { alpha, tint, .. } => {
                 // The frame's +z points outside: `eta` is inside / outside.
                 let ns = if geom.ns.dot(geom.ng) < 0.0 {
                     -geom.ns
                 } else {
                     geom.ns
                 };
-                let lobe = DielectricLobe::new(eta, *alpha, !wl.secondary_terminated());
+                let mut lobe = DielectricLobe::new(eta, *alpha, !wl.secondary_terminated());
+                if let Some(t) = tint {
+                    lobe = lobe.tinted(
+                        t.sample(uv, wl)
+                            .clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE),
+                    );
+                }
                 if dielectric::is_dispersive(eta) && lobe.is_specular() {
                     wl.terminate_secondary();
                 }
@@ -203,8 +234,45 @@ impl Material {
 
     pub fn priority(&self) -> i32 {
         match self {
-            Material::Dielectric { priority, .. } => *priority,
+            Material::Dielectric { priority, .. } | Material::Interface { priority, .. } => {
+                *priority
+            }
             _ => 0,
+        }
+    }
+
+    /// Whether the material bounds a volume that paths enter and leave (a
+    /// dielectric or an interface): such objects go on the IOR stack.
+    pub fn bounds_volume(&self) -> bool {
+        matches!(
+            self,
+            Material::Dielectric { .. } | Material::Interface { .. }
+        )
+    }
+
+    pub fn is_interface(&self) -> bool {
+        matches!(self, Material::Interface { .. })
+    }
+
+    /// Rescales the coefficients of its medium (per metre) by `units`
+    /// (metres per scene unit).
+    pub fn scale_medium(&mut self, units: f32) {
+        let medium = match self {
+            Material::Dielectric { medium, .. } => medium.as_deref_mut(),
+            Material::Interface { medium, .. } => Some(&mut **medium),
+            _ => None,
+        };
+        if let Some(m) = medium {
+            *m = m.clone().scaled(units);
+        }
+    }
+
+    /// The medium inside the volume this material bounds, if any.
+    pub fn medium(&self) -> Option<&Medium> {
+        match self {
+            Material::Dielectric { medium, .. } => medium.as_deref(),
+            Material::Interface { medium, .. } => Some(medium),
+            _ => None,
         }
     }
 }

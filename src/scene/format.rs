@@ -31,6 +31,10 @@ pub struct SceneFile {
     pub lights: Vec<LightSpec>,
     /// Light from every direction at infinity.
     pub environment: Option<EnvironmentSpec>,
+    /// A medium filling the world (fog around everything).
+    pub medium: Option<MediumSpec>,
+    /// Metres per scene unit (default 1), for media coefficients given per metre.
+    pub units: Option<f32>,
 }
 
 /// The `[environment]` table: a constant radiance, or an equirectangular
@@ -249,7 +253,43 @@ pub enum MaterialSpec {
         /// Where volumes overlap, the higher priority fills the overlap.
         #[serde(default)]
         priority: i32,
+        /// What fills it: absorbing (coloured glass, water) or scattering.
+        medium: Option<MediumSpec>,
     },
+    /// An index-matched boundary around a medium (fog, smoke): rays cross it
+    /// without refracting.
+    Interface {
+        #[serde(default)]
+        priority: i32,
+        medium: MediumSpec,
+    },
+}
+
+/// A homogeneous participating medium. Coefficients are per metre (the
+/// scene's `units` gives metres per scene unit). Absorption is given as a
+/// spectrum (`absorption`), or in glTF's form: the colour white light takes
+/// after `attenuation_distance` metres.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSpec {
+    /// σa(λ) in 1/m; "water" is pure water's (Segelstein 1981).
+    pub absorption: Option<SpectrumSpec>,
+    /// σs(λ) in 1/m (default 0: the medium only absorbs).
+    pub scattering: Option<SpectrumSpec>,
+    /// glTF KHR_materials_volume: linear sRGB colour in (0, 1] ...
+    #[serde(default, deserialize_with = "exact::option")]
+    pub attenuation_color: Option<[f32; 3]>,
+    /// ... reached after this distance in metres.
+    pub attenuation_distance: Option<f32>,
+    /// The phase function (default isotropic).
+    pub phase: Option<PhaseSpec>,
+}
+
+/// `phase = { hg = g }`: Henyey–Greenstein with mean cosine g in (−1, 1).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseSpec {
+    pub hg: f32,
 }
 
 fn default_ior() -> IorSpec {

@@ -20,6 +20,7 @@ use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
 use crate::integrator::Integrator;
 use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
 use crate::material::Material;
+use crate::medium::Medium;
 use crate::spectrum::Spectrum;
 use crate::texture::TextureRef;
 
@@ -92,8 +93,14 @@ pub struct Scene {
     /// The bounding sphere of the geometry, as lights at infinity see it.
     pub sphere: SceneSphere,
     bvh: Bvh,
-    /// Some material is a dielectric (paths then track media).
+    /// Some material bounds a volume (paths then track the IOR stack).
     has_dielectrics: bool,
+    /// The medium around everything (the stack empty), if any.
+    pub world_medium: Option<Medium>,
+    /// Some volume, or the world, holds a participating medium.
+    has_media: bool,
+    /// Some medium scatters (paths then sample distances).
+    has_scattering: bool,
     triangles: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
     attributes: VertexAttributes,
@@ -212,7 +219,12 @@ impl Scene {
             camera,
             film,
             integrator,
-            has_dielectrics: materials.iter().any(|m| m.ior().is_some()),
+            has_dielectrics: materials.iter().any(|m| m.bounds_volume()),
+            has_media: materials.iter().any(|m| m.medium().is_some()),
+            has_scattering: materials
+                .iter()
+                .any(|m| m.medium().is_some_and(|m| m.scatters())),
+            world_medium: None,
             materials,
             lights: LightSet::new(lights),
             sphere,
@@ -228,6 +240,37 @@ impl Scene {
     /// Whether any material is a dielectric.
     pub fn has_dielectrics(&self) -> bool {
         self.has_dielectrics
+    }
+
+    /// The scene with `medium` filling the world.
+    pub fn with_world_medium(mut self, medium: Option<Medium>) -> Scene {
+        if let Some(m) = &medium {
+            self.has_media = true;
+            self.has_scattering |= m.scatters();
+        }
+        self.world_medium = medium;
+        self
+    }
+
+    /// Whether any participating medium is present (segments then
+    /// attenuate and shadow rays measure transmittance).
+    pub fn has_media(&self) -> bool {
+        self.has_media
+    }
+
+    /// Whether any medium scatters (paths then sample free flights).
+    pub fn has_scattering(&self) -> bool {
+        self.has_scattering
+    }
+
+    /// The medium a ray is in: that of the stack's active object, or the
+    /// world's when the stack is empty.
+    #[inline]
+    pub fn medium_in(&self, stack: &crate::integrator::ior_stack::IorStack) -> Option<&Medium> {
+        match stack.active() {
+            Some(e) => self.materials[e.material as usize].medium(),
+            None => self.world_medium.as_ref(),
+        }
     }
 
     pub fn triangle_count(&self) -> usize {

@@ -27,6 +27,7 @@ use glam::{Vec2, Vec3};
 
 use super::{Asset, AssetMaterial, Piece, TextureCache};
 use crate::material::{Ior, Material, PbrMaterial, Reflectance};
+use crate::medium::Medium;
 use crate::scene::{Emission, Mesh};
 use crate::spectrum::Spectrum;
 use crate::texture::{Encoding, TextureRef};
@@ -211,8 +212,11 @@ fn material(
     if see_through && !glass {
         note("dissolve d/Tr without an index Ni");
     }
-    if m.unknown_param.contains_key("Tf") {
-        note("transmission filter Tf");
+    // Tf r g b on glass: the colour light keeps after one unit of path
+    // inside (a filter), as an absorbing medium; elsewhere it means nothing.
+    let filter = m.unknown_param.get("Tf").and_then(|t| parse_filter(t));
+    if m.unknown_param.contains_key("Tf") && !(glass && filter.is_some()) {
+        note("transmission filter Tf (used on glass only, as r g b)");
     }
     for (name, tex) in [
         ("map_Ks", &m.specular_texture),
@@ -240,6 +244,10 @@ fn material(
             ior: Ior::Constant(ni.unwrap_or(1.5)),
             alpha: crate::material::microfacet::alpha_from_roughness(roughness),
             priority: 0,
+            medium: filter
+                .filter(|c| c.iter().any(|&v| v < 1.0))
+                .map(|c| Box::new(Medium::absorbing(c, 1.0))),
+            tint: None,
         },
         3 => Material::Pbr(Box::new(PbrMaterial {
             base_color: Spectrum::rgb_reflectance(ks).into(),
@@ -276,4 +284,20 @@ fn material(
         material,
         emission,
     }
+}
+
+/// `Tf r g b` (or one grey value) as a colour in (0, 1]; None for the
+/// spectral and CIE XYZ forms, or values out of range.
+fn parse_filter(text: &str) -> Option<[f32; 3]> {
+    let v: Vec<f32> = text
+        .split_whitespace()
+        .map(|t| t.parse::<f32>())
+        .collect::<Result<_, _>>()
+        .ok()?;
+    let c = match v[..] {
+        [g] => [g; 3],
+        [r, g, b] => [r, g, b],
+        _ => return None,
+    };
+    c.iter().all(|x| *x > 0.0 && *x <= 1.0).then_some(c)
 }

@@ -84,10 +84,20 @@ impl Loader {
                 ior,
                 roughness,
                 priority,
+                medium,
             } => Material::Dielectric {
                 ior: self.ior(ior, file, &format!("{key}.ior"))?,
                 alpha: roughness_alpha(*roughness)?,
                 priority: *priority,
+                medium: match medium {
+                    Some(m) => Some(Box::new(self.medium(m, file, &format!("{key}.medium"))?)),
+                    None => None,
+                },
+                tint: None,
+            },
+            MaterialSpec::Interface { priority, medium } => Material::Interface {
+                priority: *priority,
+                medium: Box::new(self.medium(medium, file, &format!("{key}.medium"))?),
             },
         })
     }

@@ -6,6 +6,7 @@ mod camera;
 mod film;
 mod lights;
 mod materials;
+mod media;
 mod shapes;
 mod spectra;
 
@@ -223,8 +224,18 @@ impl Loader {
             reflectance: Spectrum::Constant(0.5).into(),
         });
         let shapes = self.shapes(&file, &material_index, &mut materials, default_material)?;
+        // Imported assets give media per metre (glTF's unit): per scene unit.
+        let units = self.units(&file)?;
+        for m in &mut materials[default_material as usize + 1..] {
+            m.scale_medium(units);
+        }
         let lights = self.lights(&file)?;
-        let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights);
+        let world_medium = match &file.medium {
+            Some(spec) => Some(self.medium(spec, &file, "medium")?),
+            None => None,
+        };
+        let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights)
+            .with_world_medium(world_medium);
         if scene.lights.is_empty() {
             self.warn(
                 "the scene has no light (no shape with `emission`, no [[light]], no [environment]) \

@@ -14,14 +14,17 @@
 //! - KHR_materials_transmission with transmission × (1 − metallic) ≥ ½ →
 //!   a dielectric with KHR_materials_ior and roughness; KHR_materials_
 //!   dispersion → Abbe number V = 20 / dispersion at n_d = ior (the
-//!   extension's definition);
+//!   extension's definition); KHR_materials_volume's attenuationColor and
+//!   attenuationDistance → an absorbing medium inside it (Beer–Lambert,
+//!   σa = −ln c / d per metre, scaled by the scene's `units`); the base
+//!   colour (factor × texture) tints the transmission at each crossing;
 //! - KHR_texture_transform on every texture; samplers' wrap modes, and
 //!   nearest magnification.
 //!
 //! Ignored, and listed once per file: alpha blending and masks (surfaces
 //! are opaque), texture coordinate sets other than 0, transmission textures,
-//! base colour tints of transmissive materials, KHR_materials_volume, and
-//! every other extension. occlusionTexture is not used by design: a path
+//! KHR_materials_volume's thickness (a rasteriser's stand-in for the
+//! geometry prism traces), and every other extension. occlusionTexture is not used by design: a path
 //! tracer computes occlusion. Cameras: perspective ones (orthographic are
 //! skipped).
 
@@ -42,8 +45,9 @@ use buffers::load_buffers;
 use validate::validate;
 
 /// Extensions that are mapped (see the module notes).
-const MAPPED_EXTENSIONS: [&str; 5] = [
+const MAPPED_EXTENSIONS: [&str; 6] = [
     "KHR_materials_transmission",
+    "KHR_materials_volume",
     "KHR_materials_ior",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
