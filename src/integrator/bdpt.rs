@@ -34,8 +34,8 @@ use glam::{Vec2, Vec3};
 use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
 use super::light_path;
-use super::volume::{mis_divisor, Flight};
-use super::{camera_ray, lens_sample, russian_roulette, PathCounters, PixelSample};
+use super::volume::{self, mis_divisor, Flight};
+use super::{camera_ray, lens_sample, PathCounters, PixelSample};
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -509,11 +509,7 @@ impl Walk {
         let mut eta_scale = 1.0f32;
         while path.len() < self.max_vertices {
             let prev = path.len() - 1;
-            let u_flight = if scene.has_scattering() {
-                sampler.next_4d()[0]
-            } else {
-                0.0
-            };
+            let u_flight = volume::flight_number(scene, sampler);
             let next = trace(
                 scene,
                 &mut ray,
@@ -551,14 +547,7 @@ impl Walk {
                     let rev = path[cur].area_density(pdf, &path[prev], scene);
                     path[prev].pdf_rev = rev;
                     ray = Ray::new(p, wi);
-                    let divisor = flight.divisor(wl);
-                    if !russian_roulette(
-                        &mut flight.beta,
-                        eta_scale / divisor,
-                        bounces,
-                        self.rr_depth,
-                        u_rr,
-                    ) {
+                    if !flight.roulette(wl, eta_scale, bounces, self.rr_depth, u_rr) {
                         break;
                     }
                     continue;
@@ -637,14 +626,7 @@ impl Walk {
             // The survivors' weight keeps each strategy unbiased; the MIS
             // densities leave roulette out, which changes only how
             // strategies share a path.
-            let divisor = flight.divisor(wl);
-            if !russian_roulette(
-                &mut flight.beta,
-                eta_scale / divisor,
-                bounces,
-                self.rr_depth,
-                u_rr,
-            ) {
+            if !flight.roulette(wl, eta_scale, bounces, self.rr_depth, u_rr) {
                 break;
             }
         }

@@ -8,8 +8,8 @@ use glam::Vec3;
 
 use super::interface::{bsdf_at, media_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
-use super::volume::Flight;
-use super::{russian_roulette, PathCounters};
+use super::volume::{self, Flight};
+use super::PathCounters;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightLeSample;
@@ -168,11 +168,7 @@ pub fn walk(
     let mut flight = Flight::new(start.beta);
     let mut depth = 0;
     while depth < max_depth {
-        let u_flight = if scene.has_scattering() {
-            sampler.next_4d()[0]
-        } else {
-            0.0
-        };
+        let u_flight = volume::flight_number(scene, sampler);
         match trace(
             scene,
             &mut ray,
@@ -209,8 +205,7 @@ pub fn walk(
                 ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
                 scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
                 // Importance is not scaled at refraction: no η'² to undo.
-                let divisor = flight.divisor(wl);
-                if !russian_roulette(&mut flight.beta, 1.0 / divisor, depth, rr_depth, u_rr) {
+                if !flight.roulette(wl, 1.0, depth, rr_depth, u_rr) {
                     break;
                 }
             }
@@ -230,8 +225,7 @@ pub fn walk(
                 let [u0, u1, _, u_rr] = sampler.next_4d();
                 let (wi, _) = phase.sample(dir_in, (u0, u1));
                 ray = Ray::new(p, wi);
-                let divisor = flight.divisor(wl);
-                if !russian_roulette(&mut flight.beta, 1.0 / divisor, depth, rr_depth, u_rr) {
+                if !flight.roulette(wl, 1.0, depth, rr_depth, u_rr) {
                     break;
                 }
             }

@@ -5,8 +5,8 @@
 
 use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
-use super::volume::Flight;
-use super::{power_heuristic, russian_roulette, PathCounters, Strategy};
+use super::volume::{self, Flight};
+use super::{power_heuristic, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
@@ -90,11 +90,7 @@ impl PathTracer {
         loop {
             // Scenes with scattering media draw a free flight per segment
             // (only then, so other scenes keep their sample dimensions).
-            let u_flight = if scene.has_scattering() {
-                sampler.next_4d()[0]
-            } else {
-                0.0
-            };
+            let u_flight = volume::flight_number(scene, sampler);
             let next = trace(
                 scene,
                 &mut ray,
@@ -140,7 +136,7 @@ impl PathTracer {
                     specular = false;
                     prev_bsdf_pdf = pdf;
                     ray = Ray::new(p, wi);
-                    if !self.roulette(&mut flight, wl, eta_scale, depth, u_rr) {
+                    if !flight.roulette(wl, eta_scale, depth, self.rr_depth, u_rr) {
                         break;
                     }
                     continue;
@@ -219,31 +215,11 @@ impl PathTracer {
                 eta_scale *= bs.eta * bs.eta;
             }
 
-            if !self.roulette(&mut flight, wl, eta_scale, depth, u_rr) {
+            if !flight.roulette(wl, eta_scale, depth, self.rr_depth, u_rr) {
                 break;
             }
         }
         l
-    }
-
-    /// Russian roulette on what the path carries (β over its spectral-MIS
-    /// divisor).
-    fn roulette(
-        &self,
-        flight: &mut Flight,
-        wl: &SampledWavelengths,
-        eta_scale: f32,
-        depth: u32,
-        u_rr: f32,
-    ) -> bool {
-        let divisor = flight.divisor(wl);
-        russian_roulette(
-            &mut flight.beta,
-            eta_scale / divisor,
-            depth,
-            self.rr_depth,
-            u_rr,
-        )
     }
 
     /// The weight of emission that the path found by BSDF sampling: all of

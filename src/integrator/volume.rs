@@ -12,7 +12,10 @@
 //! ([`Flight::weight`]). Once the secondaries are terminated (a dispersive
 //! refraction) only the hero remains and the weight is β alone.
 
+use super::russian_roulette;
 use crate::medium::{transmittance, Medium};
+use crate::sampler::Sampler;
+use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// A path's throughput with its spectral-MIS ratios.
@@ -43,6 +46,33 @@ impl Flight {
     #[inline]
     pub fn weight(&self, wl: &SampledWavelengths) -> SampledSpectrum {
         self.beta / self.divisor(wl)
+    }
+
+    /// Russian roulette (`super::russian_roulette`) on what the path
+    /// carries, β over its spectral-MIS divisor; `eta_scale` as there.
+    #[inline]
+    pub fn roulette(
+        &mut self,
+        wl: &SampledWavelengths,
+        eta_scale: f32,
+        depth: u32,
+        rr_depth: u32,
+        u: f32,
+    ) -> bool {
+        let divisor = self.divisor(wl);
+        russian_roulette(&mut self.beta, eta_scale / divisor, depth, rr_depth, u)
+    }
+}
+
+/// The number that draws the next free flight: one per segment in scenes
+/// with scattering media, none elsewhere (their sample dimensions stay as
+/// they were).
+#[inline]
+pub fn flight_number(scene: &Scene, sampler: &mut Sampler) -> f32 {
+    if scene.has_scattering() {
+        sampler.next_4d()[0]
+    } else {
+        0.0
     }
 }
 
