@@ -224,6 +224,7 @@ fn dielectric(alpha: f32) -> Material {
         priority: 0,
         medium: None,
         tint: None,
+        opaque: None,
     }
 }
 
@@ -235,6 +236,7 @@ fn tinted(alpha: f32, tint: Spectrum) -> Material {
         priority: 0,
         medium: None,
         tint: Some(Box::new(tint.into())),
+        opaque: None,
     }
 }
 

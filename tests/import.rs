@@ -913,3 +913,140 @@ fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too()
         s.warnings
     );
 }
+
+#[test]
+fn a_concave_obj_face_keeps_its_hole() {
+    // One 66-vertex face: a ring (radii 0.5 and 0.3) joined to its hole by
+    // a bridge, as exporters write faces with holes. A fan fills the hole.
+    let mut obj = String::new();
+    let mut ring = Vec::new();
+    for i in 0..=32 {
+        let t = i as f32 * std::f32::consts::TAU / 32.0;
+        ring.push((0.5 * t.cos(), 0.5 * t.sin()));
+    }
+    for i in (0..=32).rev() {
+        let t = i as f32 * std::f32::consts::TAU / 32.0;
+        ring.push((0.3 * t.cos(), 0.3 * t.sin()));
+    }
+    for (x, y) in &ring {
+        obj.push_str(&format!("v {x} {y} 0\n"));
+    }
+    obj.push('f');
+    for i in 1..=ring.len() {
+        obj.push_str(&format!(" {i}"));
+    }
+    obj.push('\n');
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("ring.obj"), obj).unwrap();
+    let s = scene_in(
+        dir.path(),
+        &format!("{CAMERA}{}", shape("obj", "ring.obj", "")),
+    )
+    .unwrap();
+    assert_eq!(s.triangle_count(), 64);
+    let hits = |x: f32, y: f32| {
+        s.intersect(&Ray::new(Vec3::new(x, y, 5.0), -Vec3::Z))
+            .is_some()
+    };
+    // The ring is there all round; the hole is empty.
+    for k in 0..16 {
+        let t = k as f32 * std::f32::consts::TAU / 16.0 + 0.1;
+        assert!(hits(0.4 * t.cos(), 0.4 * t.sin()), "ring at angle {t}");
+        assert!(!hits(0.2 * t.cos(), 0.2 * t.sin()), "hole at angle {t}");
+    }
+}
+
+#[test]
+fn mtl_textures_with_windows_paths_and_other_case_are_found_and_only_used_materials_warn() {
+    let dir = tempfile::tempdir().unwrap();
+    let (models, textures) = (dir.path().join("models"), dir.path().join("Textures"));
+    std::fs::create_dir_all(&models).unwrap();
+    std::fs::create_dir_all(&textures).unwrap();
+    std::fs::write(textures.join("Wall.PNG"), assets::png(2, 2, &CHECKER)).unwrap();
+    std::fs::write(models.join("local.png"), assets::png(2, 2, &CHECKER)).unwrap();
+    std::fs::write(
+        models.join("room.obj"),
+        "mtllib room.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         usemtl wall\nf 1/1 2/2 3/3\nusemtl near\nf 1/1 3/3 4/4\nusemtl lamp\nf 2/2 3/3 4/4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        models.join("room.mtl"),
+        "newmtl wall\nKd 1 1 1\nmap_Kd ..\\textures\\wall.png\n\
+         newmtl near\nKd 1 1 1\nmap_Kd .\\local.png\n\
+         newmtl lamp\nKa 20 20 20\nKd 0 0 0\n\
+         newmtl unused\nKd 1 1 1\nmap_Kd missing.png\nmap_Ks gloss.png\n",
+    )
+    .unwrap();
+    let s = scene_in(
+        dir.path(),
+        &format!("{CAMERA}{}", shape("obj", "models/room.obj", "")),
+    )
+    .unwrap();
+    let textured = s
+        .materials
+        .iter()
+        .filter(|m| matches!(m, Material::Diffuse { reflectance } if reflectance.texture.is_some()))
+        .count();
+    assert_eq!(textured, 2, "both textures found");
+    let all = s.warnings.join("\n");
+    assert!(all.contains("wall.png") && all.contains("case"), "{all}");
+    assert!(
+        !all.contains("local.png"),
+        "found as written (Windows separator): {all}"
+    );
+    assert!(all.contains("`lamp`") && all.contains("Ka"), "{all}");
+    assert!(
+        !all.contains("missing.png") && !all.contains("map_Ks"),
+        "a material no face uses says nothing: {all}"
+    );
+}
+
+#[test]
+fn gltf_transmission_follows_the_textured_metalness_per_texel() {
+    // Transmission 1, metallicFactor left at its default 1, and a
+    // metallicRoughnessTexture: metal 0 on the left half, 1 on the right.
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = GltfBuilder::default();
+    let prim = assets::quad(&mut b, true);
+    let (glass, metal) = ([0u8, 0, 0, 255], [0u8, 0, 255, 255]);
+    let texels: Vec<u8> = [glass, metal, glass, metal].concat();
+    let view = b.image_view(&assets::png(2, 2, &texels));
+    let json = b.json(&format!(
+        r#""extensionsUsed":["KHR_materials_transmission"],
+        "scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{prim},"material":0}}]}}],
+        "samplers":[{{"magFilter":9728}}],
+        "images":[{{"bufferView":{view},"mimeType":"image/png"}}],
+        "textures":[{{"source":0,"sampler":0}}],
+        "materials":[
+          {{"pbrMetallicRoughness":{{"baseColorFactor":[0.7,0.8,1,1],"metallicRoughnessTexture":{{"index":0}}}},
+            "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}}}}}}
+        ]"#
+    ));
+    let f = assets::write_glb(dir.path(), "half_metal", &json, &b.bin);
+    let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
+    let flags_at = |x: f32| {
+        let h = hit(&s, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
+        let m = &s.materials[h.material as usize];
+        let geom = ShadingGeometry {
+            ng: h.ng,
+            ns: h.ns,
+            wo: Vec3::Z,
+        };
+        m.bsdf(&geom, h.uv, &mut wavelengths(), Vec4::splat(1.5))
+            .flags()
+    };
+    use prism::material::BsdfFlags;
+    assert!(
+        flags_at(-0.5).contains(BsdfFlags::TRANSMISSION),
+        "glass where metal is 0"
+    );
+    assert!(
+        !flags_at(0.5).contains(BsdfFlags::TRANSMISSION),
+        "metal where metal is 1"
+    );
+    // The glass half sits on the IOR stack as a dielectric.
+    let h = hit(&s, Vec3::new(-0.5, 0.1, 5.0), -Vec3::Z);
+    assert!(s.materials[h.material as usize].bounds_volume());
+}

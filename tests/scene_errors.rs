@@ -444,3 +444,22 @@ fn bad_media_name_the_key() {
         "{e}"
     );
 }
+
+#[test]
+fn spd_spectrum_files_load_and_a_doubtful_unit_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("lamp.spd"),
+        "# Lambda (A) intensity\n380.0 0.5\n550.0 1.0\n780.0 0.5\n",
+    )
+    .unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(
+        &path,
+        format!("{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = {{ file = \"lamp.spd\" }}\n"),
+    )
+    .unwrap();
+    let s = load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let w = s.warnings.join("\n");
+    assert!(w.contains("lamp.spd") && w.contains("read as nm"), "{w}");
+}

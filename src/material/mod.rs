@@ -67,6 +67,24 @@ pub struct PbrMaterial {
     pub normal_map: Option<NormalMap>,
 }
 
+/// A transmissive glTF material whose metalness is textured: a texel is
+/// glass where transmission × (1 − metallic) ≥ ½ (the threshold prism uses
+/// for whole materials), else the glTF BRDF of `pbr` shades it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OpaqueTexels {
+    pub pbr: PbrMaterial,
+    pub transmission: f32,
+}
+
+impl OpaqueTexels {
+    /// The glTF BRDF's parameters where the texel at `uv` is opaque.
+    fn at(&self, uv: Vec2) -> Option<&PbrMaterial> {
+        let t = self.pbr.metallic_roughness.as_ref()?;
+        let metallic = self.pbr.metallic * t.linear(uv).z;
+        (self.transmission * (1.0 - metallic) < 0.5).then_some(&self.pbr)
+    }
+}
+
 /// A tangent-space normal map (glTF convention: +Y up, MikkTSpace tangents).
 #[derive(Clone, Debug, PartialEq)]
 pub struct NormalMap {
@@ -95,6 +113,8 @@ pub enum Material {
         priority: i32,
         medium: Option<Box<Medium>>,
         tint: Option<Box<Reflectance>>,
+        /// glTF: texels that the metalness texture makes opaque.
+        opaque: Option<Box<OpaqueTexels>>,
     },
     /// An index-matched boundary around a medium (fog, smoke): rays cross
     /// it without scattering or refracting, entering or leaving `medium`.
@@ -136,22 +156,7 @@ impl Material {
                     geom.wo,
                 )
             }
-            Material::Pbr(m) => {
-                let (mut metallic, mut roughness) = (m.metallic, m.roughness);
-                if let Some(t) = &m.metallic_roughness {
-                    let v = t.linear(uv);
-                    roughness *= v.y;
-                    metallic *= v.z;
-                }
-                let (frame, ng) = facing_frame(geom);
-                let lobe = PbrLobe::new(
-                    m.base_color.sample(uv, wl),
-                    metallic,
-                    microfacet::alpha_from_roughness(roughness),
-                    m.ior,
-                );
-                Bsdf::new(frame, ng, Lobe::Pbr(lobe), geom.wo)
-            }
+            Material::Pbr(m) => pbr_bsdf(m, geom, uv, wl),
             Material::Conductor { eta, k, alpha } => {
                 let (frame, ng) = facing_frame(geom);
                 let lobe = ConductorLobe::new(eta.sample(wl), k.sample(wl), *alpha);
@@ -170,6 +175,9 @@ impl Material {
                     geom.wo,
                 )
             }
+            Material::Dielectric {
+                opaque: Some(o), ..
+            } if o.at(uv).is_some() => pbr_bsdf(&o.pbr, geom, uv, wl),
             Material::Dielectric { alpha, tint, .. } => {
                 // The frame's +z points outside: `eta` is inside / outside.
                 let ns = if geom.ns.dot(geom.ng) < 0.0 {
@@ -275,6 +283,24 @@ impl Material {
             _ => None,
         }
     }
+}
+
+/// The glTF metallic-roughness BSDF of `m` at `uv`.
+fn pbr_bsdf(m: &PbrMaterial, geom: &ShadingGeometry, uv: Vec2, wl: &SampledWavelengths) -> Bsdf {
+    let (mut metallic, mut roughness) = (m.metallic, m.roughness);
+    if let Some(t) = &m.metallic_roughness {
+        let v = t.linear(uv);
+        roughness *= v.y;
+        metallic *= v.z;
+    }
+    let (frame, ng) = facing_frame(geom);
+    let lobe = PbrLobe::new(
+        m.base_color.sample(uv, wl),
+        metallic,
+        microfacet::alpha_from_roughness(roughness),
+        m.ior,
+    );
+    Bsdf::new(frame, ng, Lobe::Pbr(lobe), geom.wo)
 }
 
 /// A frame whose normal is the shading normal turned to the side of the

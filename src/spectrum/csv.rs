@@ -1,6 +1,13 @@
-//! Reading spectral CSV tables: a wavelength column in nanometres followed by
-//! one or more value columns. Lines starting with `#` are comments; a first
-//! row that does not parse as numbers is a header.
+//! Reading spectral tables: a wavelength column followed by one or more
+//! value columns, separated by commas or by whitespace (the `.spd` form of
+//! LuxPop and Mitsuba: `300.194000 0.980000`). Lines starting with `#` are
+//! comments; a first row that does not parse as numbers is a header.
+//!
+//! Wavelengths are nanometres unless the header (or a comment before the
+//! data) names another unit (µm, Å). The values are checked against the
+//! unit named and the visible range: a file whose header says "Lambda (A)"
+//! over values of 300–800 is read in nanometres, and the table's `note`
+//! says what was assumed.
 
 use std::fmt;
 
@@ -10,6 +17,59 @@ pub struct SpectralTable {
     pub wavelengths: Vec<f32>,
     /// One vector per value column.
     pub columns: Vec<Vec<f32>>,
+    /// What was assumed about the wavelengths' unit, when the file left
+    /// room for doubt (for a warning).
+    pub note: Option<String>,
+}
+
+/// A wavelength unit a file may name.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Unit {
+    Nanometre,
+    Micrometre,
+    Angstrom,
+}
+
+impl Unit {
+    fn in_nm(self) -> f32 {
+        match self {
+            Unit::Nanometre => 1.0,
+            Unit::Micrometre => 1000.0,
+            Unit::Angstrom => 0.1,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Unit::Nanometre => "nm",
+            Unit::Micrometre => "µm",
+            Unit::Angstrom => "Å",
+        }
+    }
+
+    /// The unit a header or comment names, if any.
+    fn named_in(text: &str) -> Option<Unit> {
+        let lower = text.to_lowercase();
+        if lower.contains('å') || lower.contains("(a)") || lower.contains("[a]") {
+            return Some(Unit::Angstrom);
+        }
+        lower
+            .split(|c: char| !c.is_alphanumeric() && c != 'µ')
+            .find_map(|word| match word {
+                "nm" | "nanometer" | "nanometers" | "nanometre" | "nanometres" => {
+                    Some(Unit::Nanometre)
+                }
+                "um" | "µm" | "micron" | "microns" | "micrometer" | "micrometers"
+                | "micrometre" | "micrometres" => Some(Unit::Micrometre),
+                "angstrom" | "angstroms" => Some(Unit::Angstrom),
+                _ => None,
+            })
+    }
+}
+
+/// Whether wavelengths from `min` to `max` nm reach into the visible range.
+fn visible(min: f32, max: f32) -> bool {
+    max >= 360.0 && min <= 830.0
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -33,27 +93,41 @@ pub fn parse(text: &str) -> Result<SpectralTable, CsvError> {
         header: None,
         wavelengths: Vec::new(),
         columns: Vec::new(),
+        note: None,
     };
+    // The unit named before the data: the header's, else a comment's.
+    let (mut header_unit, mut comment_unit) = (None, None);
     for (index, raw) in text.lines().enumerate() {
         let line_no = index + 1;
         let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
+        if line.is_empty() {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if let Some(comment) = line.strip_prefix('#') {
+            if table.wavelengths.is_empty() && comment_unit.is_none() {
+                comment_unit = Unit::named_in(comment);
+            }
+            continue;
+        }
+        let fields: Vec<&str> = if line.contains(',') {
+            line.split(',').map(str::trim).collect()
+        } else {
+            line.split_whitespace().collect()
+        };
         let err = |message: String| CsvError {
             line: line_no,
             message,
         };
         if fields.len() < 2 {
             return Err(err(format!(
-                "expected `wavelength,value[,...]`, found `{line}`"
+                "expected `wavelength,value[,...]` (or the same separated by spaces), found `{line}`"
             )));
         }
         let parsed: Result<Vec<f32>, _> = fields.iter().map(|f| f.parse::<f32>()).collect();
         let numbers = match parsed {
             Ok(n) => n,
             Err(_) if table.wavelengths.is_empty() && table.header.is_none() => {
+                header_unit = Unit::named_in(fields[0]).or_else(|| Unit::named_in(line));
                 table.header = Some(fields.iter().map(|s| s.to_string()).collect());
                 continue;
             }
@@ -95,6 +169,30 @@ pub fn parse(text: &str) -> Result<SpectralTable, CsvError> {
             message: "a spectrum needs at least two rows".into(),
         });
     }
+    let (min, max) = (table.wavelengths[0], *table.wavelengths.last().unwrap());
+    let unit = match header_unit.or(comment_unit) {
+        Some(u) if visible(min * u.in_nm(), max * u.in_nm()) => u,
+        Some(u) if visible(min, max) => {
+            table.note = Some(format!(
+                "the file names {} but its wavelengths ({min}–{max}) fall in the visible range only as nanometres: read as nm",
+                u.name()
+            ));
+            Unit::Nanometre
+        }
+        Some(u) => u,
+        None if !visible(min, max) && visible(min * 1000.0, max * 1000.0) => {
+            table.note = Some(format!(
+                "no wavelength unit named; {min}–{max} read as micrometres"
+            ));
+            Unit::Micrometre
+        }
+        None => Unit::Nanometre,
+    };
+    if unit != Unit::Nanometre {
+        for l in &mut table.wavelengths {
+            *l *= unit.in_nm();
+        }
+    }
     Ok(table)
 }
 
@@ -108,6 +206,38 @@ mod tests {
         assert_eq!(t.header.unwrap(), vec!["wavelength_nm", "n", "k"]);
         assert_eq!(t.wavelengths, vec![400.0, 500.0]);
         assert_eq!(t.columns, vec![vec![1.5, 1.4], vec![0.1, 0.2]]);
+    }
+
+    #[test]
+    fn whitespace_separated_spd_files_with_comments_read_as_csv() {
+        let spd =
+            "# LuxPop-style .spd\n# nm  value\n300.194000 0.980000\n400.5\t0.5\n  700   0.25  \n";
+        let t = parse(spd).unwrap();
+        assert_eq!(t.wavelengths, vec![300.194, 400.5, 700.0]);
+        assert_eq!(t.columns, vec![vec![0.98, 0.5, 0.25]]);
+        assert_eq!(t.note, None);
+    }
+
+    #[test]
+    fn a_named_unit_is_applied_and_checked_against_the_visible_range() {
+        // The header's unit, applied.
+        let t = parse("wavelength (um),n\n0.4,1.5\n0.7,1.4\n").unwrap();
+        assert_eq!(t.wavelengths, vec![400.0, 700.0]);
+        assert_eq!(t.note, None);
+        let t = parse("# Lambda in Angstrom\n4000 1\n7000 2\n").unwrap();
+        assert_eq!(t.wavelengths, vec![400.0, 700.0]);
+        // A header that says Å over values that are nanometres: read as
+        // nanometres, and said.
+        let t = parse("Lambda (A)  value\n300.0 0.1\n800.0 0.2\n").unwrap();
+        assert_eq!(t.wavelengths, vec![300.0, 800.0]);
+        let note = t.note.unwrap();
+        assert!(note.contains("Å") && note.contains("nm"), "{note}");
+        // No unit and values only visible as micrometres.
+        let t = parse("0.38,1\n0.78,2\n").unwrap();
+        assert_eq!(t.wavelengths, vec![380.0, 780.0]);
+        assert!(t.note.unwrap().contains("micrometres"));
+        // Plain nanometres say nothing.
+        assert_eq!(parse("380 1\n780 2\n").unwrap().note, None);
     }
 
     #[test]

@@ -5,6 +5,7 @@
 
 pub mod gltf;
 pub mod obj;
+mod polygon;
 
 use std::collections::HashMap;
 use std::path::Path;

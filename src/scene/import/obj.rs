@@ -1,5 +1,6 @@
 //! Wavefront OBJ with MTL materials (tobj). Polygons of any size are
-//! triangulated, negative indices resolved, objects and groups split by
+//! triangulated in their own plane by ear clipping (concave ones too),
+//! negative indices resolved, objects and groups split by
 //! material; a missing or broken .mtl is a warning (the scene's default
 //! material is used), never a failure.
 //!
@@ -15,9 +16,12 @@
 //!
 //! `Ns` (Phong exponent) becomes α = √(2 / (Ns + 2)) (Walter et al. 2007's
 //! Phong–Beckmann match). Colours (Kd, Ks, Ke) are linear; textures sRGB.
-//! Ignored, and listed once per file: `d`/`Tr` without an index (cut-out
-//! transparency), `Tf`, `map_Ks`, `map_Ns`, `map_d`, bump/normal maps,
-//! ambient terms.
+//! Ignored, and listed once per file for the materials faces use: `d`/`Tr`
+//! without an index (cut-out transparency), `Tf` off glass, `map_Ks`,
+//! `map_Ns`, `map_d`, bump/normal maps, ambient terms (a `Ka` above 1
+//! without `Ke`, a lamp written as ambient colour, is warned about).
+//! Texture names may use Windows separators and differ in case from the
+//! files (with a warning).
 
 use std::fs::File;
 use std::io::BufReader;
@@ -25,7 +29,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use super::{Asset, AssetMaterial, Piece, TextureCache};
+use super::{polygon, Asset, AssetMaterial, Piece, TextureCache};
 use crate::material::{Ior, Material, PbrMaterial, Reflectance};
 use crate::medium::Medium;
 use crate::scene::{Emission, Mesh};
@@ -43,8 +47,10 @@ fn roughness_from_phong(ns: f32) -> f32 {
 pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<Asset, String> {
     let file = File::open(path).map_err(|e| format!("cannot read: {e}"))?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    // Polygons are triangulated here, in their own plane (tobj fans them,
+    // which fills concave faces).
     let options = tobj::LoadOptions {
-        triangulate: true,
+        triangulate: false,
         single_index: true,
         ..Default::default()
     };
@@ -82,19 +88,16 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
         .and_then(|p| p.parent())
         .unwrap_or(&base)
         .to_path_buf();
-    let mut ignored = Vec::new();
+    // Each material's warnings and unmapped features, reported only for
+    // the materials that faces use.
+    let mut said: Vec<(Vec<String>, Vec<String>)> = Vec::new();
     for m in &mtl_materials {
-        asset.materials.push(material(
-            m,
-            &mtl_dir,
-            textures,
-            &mut asset.warnings,
-            &mut ignored,
-        ));
+        let (mut warnings, mut ignored) = (Vec::new(), Vec::new());
+        asset
+            .materials
+            .push(material(m, &mtl_dir, textures, &mut warnings, &mut ignored));
+        said.push((warnings, ignored));
     }
-    ignored.sort();
-    ignored.dedup();
-    asset.ignored = ignored;
 
     for model in &models {
         let m = &model.mesh;
@@ -126,14 +129,30 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
                     .collect(),
             );
         }
-        for f in m.indices.chunks_exact(3) {
-            if f.iter().any(|&i| i as usize >= count) {
-                return Err(format!(
-                    "face index out of range in object `{}`",
-                    model.name
-                ));
+        if m.indices.iter().any(|&i| i as usize >= count) {
+            return Err(format!(
+                "face index out of range in object `{}`",
+                model.name
+            ));
+        }
+        if m.face_arities.is_empty() {
+            // Every face a triangle.
+            mesh.indices
+                .extend(m.indices.chunks_exact(3).map(|f| [f[0], f[1], f[2]]));
+        } else {
+            let mut start = 0;
+            for &arity in &m.face_arities {
+                let Some(face) = m.indices.get(start..start + arity as usize) else {
+                    return Err(format!("a face of object `{}` is cut short", model.name));
+                };
+                start += arity as usize;
+                let points: Vec<Vec3> = face.iter().map(|&i| mesh.positions[i as usize]).collect();
+                mesh.indices.extend(
+                    polygon::triangulate(&points)
+                        .into_iter()
+                        .map(|t| t.map(|k| face[k])),
+                );
             }
-            mesh.indices.push([f[0], f[1], f[2]]);
         }
         if mesh.indices.is_empty() {
             continue;
@@ -155,6 +174,18 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     if asset.pieces.is_empty() {
         return Err("the OBJ file has no faces".into());
     }
+    let mut used: Vec<usize> = asset.pieces.iter().filter_map(|p| p.material).collect();
+    used.sort_unstable();
+    used.dedup();
+    let mut ignored = Vec::new();
+    for i in used {
+        let (warnings, notes) = std::mem::take(&mut said[i]);
+        asset.warnings.extend(warnings);
+        ignored.extend(notes);
+    }
+    ignored.sort();
+    ignored.dedup();
+    asset.ignored = ignored;
     Ok(asset)
 }
 
@@ -167,12 +198,16 @@ fn texture(
     warnings: &mut Vec<String>,
 ) -> Option<TextureRef> {
     let name = name.as_ref()?;
-    // Options such as `-s 1 1 1` may precede the file name.
-    let path = dir.join(name);
-    let path = if path.exists() {
-        path
-    } else {
-        dir.join(name.split_whitespace().last().unwrap_or(name))
+    let path = match find_texture(dir, name) {
+        Found::Exact(path) => path,
+        Found::IgnoringCase(path) => {
+            warnings.push(format!(
+                "texture `{name}` not found as written; using {} (the name differs in case)",
+                path.display()
+            ));
+            path
+        }
+        Found::Missing => dir.join(name),
     };
     match textures.file(&path, encoding) {
         Ok(t) => Some(TextureRef::new(t)),
@@ -181,6 +216,60 @@ fn texture(
             None
         }
     }
+}
+
+/// Where a texture named in an MTL file is.
+enum Found {
+    Exact(PathBuf),
+    /// Only by matching names without regard to case (files made on
+    /// Windows or macOS, whose file systems ignore it).
+    IgnoringCase(PathBuf),
+    Missing,
+}
+
+/// Finds the texture `name` relative to `dir`: options such as `-s 1 1 1`
+/// may precede the file name, Windows writes `\` between directories
+/// (`.\wall.jpg`, `..\textures\a.png`), and names may differ in case from
+/// the files.
+fn find_texture(dir: &Path, name: &str) -> Found {
+    let last = name.split_whitespace().last().unwrap_or(name);
+    let candidates = [name, last];
+    for candidate in candidates {
+        for form in [candidate.to_string(), candidate.replace('\\', "/")] {
+            let path = dir.join(&form);
+            if path.is_file() {
+                return Found::Exact(path);
+            }
+        }
+    }
+    for candidate in candidates {
+        if let Some(path) = ignoring_case(dir, &candidate.replace('\\', "/")) {
+            return Found::IgnoringCase(path);
+        }
+    }
+    Found::Missing
+}
+
+/// `relative` under `dir`, each component matched without regard to case.
+fn ignoring_case(dir: &Path, relative: &str) -> Option<PathBuf> {
+    let mut path = dir.to_path_buf();
+    for part in relative.split('/').filter(|p| !p.is_empty() && *p != ".") {
+        if part == ".." {
+            path.push("..");
+            continue;
+        }
+        let exact = path.join(part);
+        if exact.exists() {
+            path = exact;
+            continue;
+        }
+        let entry = std::fs::read_dir(&path)
+            .ok()?
+            .filter_map(Result::ok)
+            .find(|e| e.file_name().to_string_lossy().eq_ignore_ascii_case(part))?;
+        path.push(entry.file_name());
+    }
+    path.is_file().then_some(path)
 }
 
 fn material(
@@ -194,6 +283,14 @@ fn material(
     let kd = rgb(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = rgb(m.specular).unwrap_or(Vec3::ZERO);
     let ke = rgb(m.emissive).unwrap_or(Vec3::ZERO);
+    // Some files (the Embree Cornell Box) write their lamps as a bright
+    // ambient colour: say so, or the scene renders dark without a word.
+    if rgb(m.ambient).is_some_and(|ka| ka.max_element() > 1.0) && ke == Vec3::ZERO {
+        warnings.push(format!(
+            "material `{}` has an ambient colour Ka above 1 and no Ke: if it is meant to be a light, give it Ke (Ka is not light)",
+            m.name
+        ));
+    }
     let ni = m
         .optical_density
         .filter(|n| n.is_finite() && *n >= 1.0 && *n <= 10.0);
@@ -248,6 +345,7 @@ fn material(
                 .filter(|c| c.iter().any(|&v| v < 1.0))
                 .map(|c| Box::new(Medium::absorbing(c, 1.0))),
             tint: None,
+            opaque: None,
         },
         3 => Material::Pbr(Box::new(PbrMaterial {
             base_color: Spectrum::rgb_reflectance(ks).into(),

@@ -94,6 +94,7 @@ impl Loader {
                     None => None,
                 },
                 tint: None,
+                opaque: None,
             },
             MaterialSpec::Interface { priority, medium } => Material::Interface {
                 priority: *priority,

@@ -55,6 +55,9 @@ impl Loader {
                 })?;
                 let t = csv::parse(&text)
                     .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
+                if let Some(note) = &t.note {
+                    self.warn(format!("`{key}`: {}: {note}", full.display()));
+                }
                 Spectrum::Table(TabulatedSpectrum::new(t.wavelengths, t.columns[0].clone()))
                     .scaled(*scale)
             }

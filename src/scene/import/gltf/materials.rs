@@ -6,7 +6,7 @@ use gltf::texture::{MagFilter, WrappingMode};
 
 use super::buffers::{percent_decode, read_uri};
 use super::Context;
-use crate::material::{Ior, Material, NormalMap, PbrMaterial, Reflectance};
+use crate::material::{Ior, Material, NormalMap, OpaqueTexels, PbrMaterial, Reflectance};
 use crate::medium::Medium;
 use crate::scene::import::AssetMaterial;
 use crate::scene::Emission;
@@ -170,38 +170,57 @@ impl Context<'_> {
                     .into(),
             );
         }
-        let material = if transmission * (1.0 - metallic) >= 0.5 {
-            // The base colour filters what crosses the surface (glTF's
-            // specular BTDF times baseColor), at each crossing.
-            let tint = (base_color.texture.is_some() || Vec3::new(r, g, b) != Vec3::ONE)
-                .then(|| Box::new(base_color.clone()));
-            let dispersion = m
-                .extension_value("KHR_materials_dispersion")
-                .and_then(|v| v.get("dispersion"))
-                .and_then(|v| v.as_f64())
-                .unwrap_or(0.0) as f32;
-            let ior = if dispersion > 0.0 {
-                Ior::abbe(ior, 20.0 / dispersion)
+        // Glass where transmission × (1 − metallic) ≥ ½. With a metalness
+        // texture that holds per texel: the material is glass that shades
+        // its opaque texels with the glTF BRDF.
+        let textured_metal = metallic_roughness.is_some();
+        let material =
+            if transmission * (1.0 - metallic) >= 0.5 || (transmission >= 0.5 && textured_metal) {
+                let opaque = textured_metal.then(|| {
+                    Box::new(OpaqueTexels {
+                        pbr: PbrMaterial {
+                            base_color: base_color.clone(),
+                            metallic,
+                            roughness,
+                            metallic_roughness: metallic_roughness.clone(),
+                            ior,
+                            normal_map: normal_map.clone(),
+                        },
+                        transmission,
+                    })
+                });
+                // The base colour filters what crosses the surface (glTF's
+                // specular BTDF times baseColor), at each crossing.
+                let tint = (base_color.texture.is_some() || Vec3::new(r, g, b) != Vec3::ONE)
+                    .then(|| Box::new(base_color.clone()));
+                let dispersion = m
+                    .extension_value("KHR_materials_dispersion")
+                    .and_then(|v| v.get("dispersion"))
+                    .and_then(|v| v.as_f64())
+                    .unwrap_or(0.0) as f32;
+                let ior = if dispersion > 0.0 {
+                    Ior::abbe(ior, 20.0 / dispersion)
+                } else {
+                    Ior::Constant(ior)
+                };
+                Material::Dielectric {
+                    ior,
+                    alpha: crate::material::microfacet::alpha_from_roughness(roughness),
+                    priority: 0,
+                    medium: self.volume(m),
+                    tint,
+                    opaque,
+                }
             } else {
-                Ior::Constant(ior)
+                Material::Pbr(Box::new(PbrMaterial {
+                    base_color,
+                    metallic,
+                    roughness,
+                    metallic_roughness,
+                    ior,
+                    normal_map,
+                }))
             };
-            Material::Dielectric {
-                ior,
-                alpha: crate::material::microfacet::alpha_from_roughness(roughness),
-                priority: 0,
-                medium: self.volume(m),
-                tint,
-            }
-        } else {
-            Material::Pbr(Box::new(PbrMaterial {
-                base_color,
-                metallic,
-                roughness,
-                metallic_roughness,
-                ior,
-                normal_map,
-            }))
-        };
         let strength = m.emissive_strength().unwrap_or(1.0).max(0.0);
         let emissive = Vec3::from(m.emissive_factor()).max(Vec3::ZERO) * strength;
         let emission = (emissive.max_element() > 0.0 && emissive.is_finite()).then(|| Emission {
