@@ -36,6 +36,11 @@ pub enum Encoding {
     SrgbColour,
     /// Linear numbers (metalness, roughness, normal vectors).
     Linear,
+    /// The alpha channel alone (1 where the image has none): glTF coverage.
+    Alpha,
+    /// The alpha channel, or the grey level of an image without one: an
+    /// MTL `map_d` matte.
+    Matte,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -44,6 +49,8 @@ enum Texels {
     Spectral(Vec<[f32; 4]>),
     /// Per texel: RGBA as linear numbers.
     Linear(Vec<Vec4>),
+    /// Per texel: one number (coverage).
+    Scalar(Vec<f32>),
 }
 
 /// A decoded image with its sampling state.
@@ -68,8 +75,13 @@ impl Texture {
             return Err("the image is empty".into());
         }
         // Values scaled to [0, 1] per channel, no colour conversion yet.
-        let rgba = image.to_rgba32f();
-        Ok(Self::from_rgba(width, height, rgba.as_raw(), encoding))
+        let mut rgba = image.to_rgba32f().into_raw();
+        if encoding == Encoding::Matte && !image.color().has_alpha() {
+            for p in rgba.chunks_exact_mut(4) {
+                p[3] = (p[0] + p[1] + p[2]) / 3.0;
+            }
+        }
+        Ok(Self::from_rgba(width, height, &rgba, encoding))
     }
 
     /// Builds a texture from RGBA values in [0, 1], row by row from the top
@@ -94,6 +106,11 @@ impl Texture {
                 let values: Vec<Vec4> = pixels.collect();
                 let sum = values.iter().map(|v| v.truncate()).sum();
                 (Texels::Linear(values), sum)
+            }
+            Encoding::Alpha | Encoding::Matte => {
+                let values: Vec<f32> = pixels.map(|p| p.w).collect();
+                let sum = Vec3::splat(values.iter().sum());
+                (Texels::Scalar(values), sum)
             }
         };
         Texture {
@@ -150,7 +167,9 @@ impl Texture {
     pub fn spectrum(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
         let texels = match &self.texels {
             Texels::Spectral(t) => t,
-            Texels::Linear(_) => return SampledSpectrum::splat(self.linear(uv).x),
+            Texels::Linear(_) | Texels::Scalar(_) => {
+                return SampledSpectrum::splat(self.linear(uv).x)
+            }
         };
         let t = Vec4::from_array(wl.lambda.to_array().map(normalised_wavelength));
         let mut s = SampledSpectrum::ZERO;
@@ -175,6 +194,12 @@ impl Texture {
                 .iter()
                 .map(|&(i, w)| t[i] * w)
                 .fold(Vec4::ZERO, |a, b| a + b),
+            Texels::Scalar(t) => Vec4::splat(
+                self.footprint(uv)
+                    .iter()
+                    .map(|&(i, w)| t[i] * w)
+                    .sum::<f32>(),
+            ),
             Texels::Spectral(_) => Vec4::splat(self.mean_rgb.element_sum() / 3.0),
         }
     }

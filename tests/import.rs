@@ -279,7 +279,8 @@ fn gltf_materials_map_to_spectral_materials() {
         "{}",
         ignored[0]
     );
-    assert!(ignored[0].contains("alphaMode"), "{}", ignored[0]);
+    // BLEND is mapped (a cut-out), so not in the list.
+    assert!(!ignored[0].contains("alphaMode"), "{}", ignored[0]);
     assert!(!ignored[0].contains("KHR_materials_ior"), "{}", ignored[0]);
 }
 
@@ -735,9 +736,9 @@ fn obj_with_mtl_polygons_groups_and_textures() {
     assert!(kinds
         .iter()
         .any(|m| matches!(m, Material::Pbr(p) if p.metallic == 1.0)));
-    // Ignored features are listed once: dissolve.
+    // Dissolve without an index is a cut-out now, not an ignored feature.
     assert!(
-        s.warnings.iter().any(|w| w.contains("dissolve")),
+        !s.warnings.iter().any(|w| w.contains("dissolve")),
         "{:?}",
         s.warnings
     );
@@ -1049,4 +1050,136 @@ fn gltf_transmission_follows_the_textured_metalness_per_texel() {
     // The glass half sits on the IOR stack as a dielectric.
     let h = hit(&s, Vec3::new(-0.5, 0.1, 5.0), -Vec3::Z);
     assert!(s.materials[h.material as usize].bounds_volume());
+}
+
+#[test]
+fn gltf_alpha_mask_and_blend_and_mtl_dissolve_cut_surfaces_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = GltfBuilder::default();
+    let prim = assets::quad(&mut b, true);
+    // Alpha 0 on the left half, 1 on the right.
+    let texels: Vec<u8> = [[255u8, 255, 255, 0], [255, 255, 255, 255]]
+        .concat()
+        .repeat(2);
+    let view = b.image_view(&assets::png(2, 2, &texels));
+    let json = b.json(&format!(
+        r#""scenes":[{{"nodes":[0,1]}}],"nodes":[{{"mesh":0}},{{"mesh":1,"translation":[3,0,0]}}],
+        "meshes":[{{"primitives":[{prim},"material":0}}]}},{{"primitives":[{prim},"material":1}}]}}],
+        "samplers":[{{"magFilter":9728}}],
+        "images":[{{"bufferView":{view},"mimeType":"image/png"}}],
+        "textures":[{{"source":0,"sampler":0}}],
+        "materials":[
+          {{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}},"metallicFactor":0}},"alphaMode":"MASK","alphaCutoff":0.5}},
+          {{"pbrMetallicRoughness":{{"baseColorFactor":[1,1,1,0.3],"metallicFactor":0}},"alphaMode":"BLEND"}}
+        ]"#
+    ));
+    let f = assets::write_glb(dir.path(), "cutouts", &json, &b.bin);
+    let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
+    let down = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 5.0), -Vec3::Z);
+    // MASK: the left half is not there, for closest hits and shadow rays.
+    for y in [-0.7f32, 0.0, 0.6] {
+        assert!(s.intersect(&down(-0.5, y)).is_none(), "masked out at y {y}");
+        assert!(!s.occluded(&down(-0.5, y)));
+        assert!(s.intersect(&down(0.5, y)).is_some(), "kept at y {y}");
+        assert!(s.occluded(&down(0.5, y)));
+    }
+    // BLEND: present with probability 0.3, decided per ray.
+    let n = 4000;
+    let hits = (0..n)
+        .filter(|i| {
+            let (x, y) = (
+                3.0 + 1.8 * ((*i as f32 * 0.618_034).fract() - 0.5),
+                1.8 * ((*i as f32 * 0.414_214).fract() - 0.5),
+            );
+            s.intersect(&down(x, y)).is_some()
+        })
+        .count() as f64
+        / n as f64;
+    let sigma = (0.3f64 * 0.7 / n as f64).sqrt();
+    assert!(
+        (hits - 0.3).abs() < 5.0 * sigma,
+        "blend coverage {hits} against 0.3 ± {sigma}"
+    );
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("alphaMode")),
+        "{:?}",
+        s.warnings
+    );
+
+    // MTL: dissolve on a diffuse surface, and a grey map_d without alpha.
+    // A grey image (no alpha channel): black on the left, white on the right.
+    image::GrayImage::from_raw(2, 2, vec![0, 255, 0, 255])
+        .unwrap()
+        .save(dir.path().join("matte.png"))
+        .unwrap();
+    std::fs::write(
+        dir.path().join("cards.obj"),
+        "mtllib cards.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\n\
+         usemtl leaf\nf 1/1 2/2 3/3 4/4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("cards.mtl"),
+        "newmtl leaf\nKd 0.2 0.6 0.2\nmap_d matte.png\n",
+    )
+    .unwrap();
+    let s = scene_in(
+        dir.path(),
+        &format!("{CAMERA}{}", shape("obj", "cards.obj", "")),
+    )
+    .unwrap();
+    assert!(
+        s.intersect(&down(-0.5, 0.0)).is_none(),
+        "black in the matte: absent"
+    );
+    assert!(
+        s.intersect(&down(0.5, 0.0)).is_some(),
+        "white in the matte: present"
+    );
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("map_d")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn stochastic_transparency_passes_the_expected_share_of_light() {
+    // A black card of dissolve 0.3 (an MTL cut-out) in front of a white
+    // emitter: 70 % of the emitter's radiance gets through, on average.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("card.obj"),
+        "mtllib card.mtl\nv -3 -3 0\nv 3 -3 0\nv 3 3 0\nv -3 3 0\nusemtl veil\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("card.mtl"),
+        "newmtl veil\nKd 0 0 0\nd 0.3\n",
+    )
+    .unwrap();
+    let s = scene_in(
+        dir.path(),
+        &format!(
+            "{CAMERA}[film]\nresolution = [8, 8]\nspp = 64\n{}\
+             [[shape]]\ntype = \"quad\"\nvertices = [[-9, -9, -3], [9, -9, -3], [9, 9, -3], [-9, 9, -3]]\nemission = 1\n",
+            shape("obj", "card.obj", "")
+        ),
+    )
+    .unwrap();
+    let film = common::render_film(&s, 2);
+    let (mut mean, mut var) = (0.0, 0.0);
+    for y in 0..8 {
+        for x in 0..8 {
+            let (m, v) = film.luminance_and_variance(x, y);
+            mean += m / 64.0;
+            var += v / 4096.0;
+        }
+    }
+    let sigma = var.sqrt();
+    assert!(
+        (mean - 0.7).abs() < 5.0 * sigma,
+        "{mean} ± {sigma}, expected 0.7"
+    );
+    assert!(sigma < 0.01, "{sigma}");
 }

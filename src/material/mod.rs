@@ -5,6 +5,7 @@
 
 pub mod bsdf;
 mod conductor;
+pub mod cutout;
 pub mod dielectric;
 mod diffuse;
 pub mod fresnel;
@@ -17,6 +18,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 pub use bsdf::{Bsdf, BsdfEval, BsdfFlags, BsdfSample, Lobe, TransportMode};
 pub use conductor::ConductorLobe;
+pub use cutout::{Cutout, CutoutMode};
 pub use dielectric::DielectricLobe;
 pub use diffuse::DiffuseLobe;
 pub use ior::Ior;

@@ -16,10 +16,11 @@ pub use mesh::Mesh;
 
 use crate::camera::Camera;
 use crate::film::FilmSettings;
+use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
 use crate::integrator::Integrator;
 use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
-use crate::material::Material;
+use crate::material::{Cutout, Material};
 use crate::medium::Medium;
 use crate::spectrum::Spectrum;
 use crate::texture::TextureRef;
@@ -101,6 +102,9 @@ pub struct Scene {
     has_media: bool,
     /// Some medium scatters (paths then sample distances).
     has_scattering: bool,
+    /// Per material, where its surfaces are absent; empty when no
+    /// material has cut-outs (intersection then skips the test).
+    cutouts: Vec<Option<Cutout>>,
     triangles: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
     attributes: VertexAttributes,
@@ -225,6 +229,7 @@ impl Scene {
                 .iter()
                 .any(|m| m.medium().is_some_and(|m| m.scatters())),
             world_medium: None,
+            cutouts: Vec::new(),
             materials,
             lights: LightSet::new(lights),
             sphere,
@@ -249,6 +254,16 @@ impl Scene {
             self.has_scattering |= m.scatters();
         }
         self.world_medium = medium;
+        self
+    }
+
+    /// The scene with cut-outs for the materials `cutouts` names.
+    pub fn with_cutouts(mut self, cutouts: std::collections::HashMap<u32, Cutout>) -> Scene {
+        if !cutouts.is_empty() {
+            self.cutouts = (0..self.materials.len() as u32)
+                .map(|i| cutouts.get(&i).cloned())
+                .collect();
+        }
         self
     }
 
@@ -296,7 +311,35 @@ impl Scene {
         self.bvh.intersect(ray, &self.triangles)
     }
 
+    /// The closest surface along `ray`, passing where cut-outs leave a
+    /// surface absent (its `t` stays measured along `ray`).
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        if self.cutouts.is_empty() {
+            return self.closest_surface(ray);
+        }
+        let mut r = *ray;
+        let mut travelled = 0.0;
+        for _ in 0..MAX_CUTOUTS_CROSSED {
+            let mut hit = self.closest_surface(&r)?;
+            match &self.cutouts[hit.material as usize] {
+                Some(c) if !c.present(hit.uv, blend_number(hit.p, r.dir)) => {
+                    travelled += hit.t;
+                    r = Ray {
+                        origin: offset_ray_origin(hit.p, hit.p_err, hit.ng, r.dir),
+                        dir: r.dir,
+                        t_max: r.t_max - hit.t,
+                    };
+                }
+                _ => {
+                    hit.t += travelled;
+                    return Some(hit);
+                }
+            }
+        }
+        None
+    }
+
+    fn closest_surface(&self, ray: &Ray) -> Option<SurfaceHit> {
         let (prim, hit) = self.bvh.intersect(ray, &self.triangles)?;
         let tri = &self.triangles[prim as usize];
         let info = &self.shading[prim as usize];
@@ -343,6 +386,26 @@ impl Scene {
     }
 
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.bvh.occluded(ray, &self.triangles)
+        if self.cutouts.is_empty() {
+            self.bvh.occluded(ray, &self.triangles)
+        } else {
+            self.intersect(ray).is_some()
+        }
     }
+}
+
+/// Cut-out surfaces one ray may pass before it is taken as lost (a forest
+/// of leaf cards is far below this).
+const MAX_CUTOUTS_CROSSED: usize = 4096;
+
+/// A uniform number in [0, 1) from where a ray meets a surface and where it
+/// goes: decides stochastic transparency the same way on every run and
+/// thread, independently for different rays.
+fn blend_number(p: Vec3, dir: Vec3) -> f32 {
+    let mut h: u64 = 0x9e37_79b9_7f4a_7c15;
+    for x in [p.x, p.y, p.z, dir.x, dir.y, dir.z] {
+        h = (h ^ u64::from(x.to_bits())).wrapping_mul(0xff51_afd7_ed55_8ccd);
+        h ^= h >> 33;
+    }
+    (h >> 40) as f32 / (1u64 << 24) as f32
 }

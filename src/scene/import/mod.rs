@@ -15,7 +15,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::mesh::Mesh;
 use super::Emission;
-use crate::material::Material;
+use crate::material::{Cutout, Material};
 use crate::texture::{Encoding, Filter, Texture, Wrap};
 
 /// Everything taken from one asset file.
@@ -43,6 +43,8 @@ pub struct AssetMaterial {
     pub name: String,
     pub material: Material,
     pub emission: Option<Emission>,
+    /// Where the surface is absent (alpha masks and blending).
+    pub cutout: Option<Cutout>,
 }
 
 /// A perspective camera found in the asset, in the asset's space.

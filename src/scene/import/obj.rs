@@ -16,9 +16,12 @@
 //!
 //! `Ns` (Phong exponent) becomes α = √(2 / (Ns + 2)) (Walter et al. 2007's
 //! Phong–Beckmann match). Colours (Kd, Ks, Ke) are linear; textures sRGB.
-//! Ignored, and listed once per file for the materials faces use: `d`/`Tr`
-//! without an index (cut-out transparency), `Tf` off glass, `map_Ks`,
-//! `map_Ns`, `map_d`, bump/normal maps, ambient terms (a `Ka` above 1
+//! - `d` < 1 (`Tr` > 0) or `map_d` on a surface that is not glass → a
+//!   cut-out: the surface is there with probability d × map_d (the map's
+//!   alpha channel, or its grey level without one).
+//!
+//! Ignored, and listed once per file for the materials faces use: `Tf` off
+//! glass, `map_Ks`, `map_Ns`, bump/normal maps, ambient terms (a `Ka` above 1
 //! without `Ke`, a lamp written as ambient colour, is warned about).
 //! Texture names may use Windows separators and differ in case from the
 //! files (with a warning).
@@ -30,7 +33,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use super::{polygon, Asset, AssetMaterial, Piece, TextureCache};
-use crate::material::{Ior, Material, PbrMaterial, Reflectance};
+use crate::material::{Cutout, CutoutMode, Ior, Material, PbrMaterial, Reflectance};
 use crate::medium::Medium;
 use crate::scene::{Emission, Mesh};
 use crate::spectrum::Spectrum;
@@ -306,9 +309,6 @@ fn material(
     let see_through = m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0);
     let glass = matches!(illum, 4 | 6 | 7 | 9) || (see_through && ni.is_some_and(|n| n > 1.0));
     let mut note = |what: &str| ignored.push(format!("{what} (material `{}`)", m.name));
-    if see_through && !glass {
-        note("dissolve d/Tr without an index Ni");
-    }
     // Tf r g b on glass: the colour light keeps after one unit of path
     // inside (a filter), as an absorbing medium; elsewhere it means nothing.
     let filter = m.unknown_param.get("Tf").and_then(|t| parse_filter(t));
@@ -318,7 +318,6 @@ fn material(
     for (name, tex) in [
         ("map_Ks", &m.specular_texture),
         ("map_Ns", &m.shininess_texture),
-        ("map_d", &m.dissolve_texture),
         ("bump/normal map", &m.normal_texture),
     ] {
         if tex.is_some() {
@@ -377,10 +376,37 @@ fn material(
         texture: emission_texture,
         two_sided: false,
     });
+    // Dissolve on a surface that is not glass: a cut-out (the surface is
+    // there with probability d × map_d).
+    let matte = m
+        .dissolve_texture
+        .as_ref()
+        .filter(|_| !glass)
+        .and_then(|_| {
+            texture(
+                &m.dissolve_texture,
+                dir,
+                Encoding::Matte,
+                textures,
+                warnings,
+            )
+        });
+    let dissolve = m
+        .dissolve
+        .or(tr.map(|t| 1.0 - t))
+        .filter(|d| d.is_finite())
+        .unwrap_or(1.0)
+        .clamp(0.0, 1.0);
+    let cutout = (!glass && (dissolve < 1.0 || matte.is_some())).then_some(Cutout {
+        factor: dissolve,
+        texture: matte,
+        mode: CutoutMode::Blend,
+    });
     AssetMaterial {
         name: m.name.clone(),
         material,
         emission,
+        cutout,
     }
 }
 

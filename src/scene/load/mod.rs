@@ -20,7 +20,7 @@ use super::import::{Asset, TextureCache};
 use super::Scene;
 use crate::film::{Gamut, Tonemap};
 use crate::integrator::{IntegratorKind, Strategy};
-use crate::material::Material;
+use crate::material::{Cutout, Material};
 use crate::spectrum::Spectrum;
 
 /// The largest vertex coordinate a scene may hold (see `Loader::place`).
@@ -123,6 +123,8 @@ struct Loader {
     /// OBJ and glTF files read so far: instances of one file read it once.
     assets: RefCell<HashMap<PathBuf, Rc<Asset>>>,
     warnings: RefCell<Vec<String>>,
+    /// Cut-outs of imported materials, by scene material index.
+    cutouts: RefCell<HashMap<u32, Cutout>>,
     /// Keys set by the command line, and the flag that set each.
     overridden: RefCell<Vec<(&'static str, &'static str)>>,
 }
@@ -138,6 +140,7 @@ impl Loader {
             textures: RefCell::default(),
             assets: RefCell::default(),
             warnings: RefCell::default(),
+            cutouts: RefCell::default(),
             overridden: RefCell::default(),
         }
     }
@@ -235,7 +238,8 @@ impl Loader {
             None => None,
         };
         let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights)
-            .with_world_medium(world_medium);
+            .with_world_medium(world_medium)
+            .with_cutouts(self.cutouts.take());
         if scene.lights.is_empty() {
             self.warn(
                 "the scene has no light (no shape with `emission`, no [[light]], no [environment]) \

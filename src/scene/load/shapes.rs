@@ -206,7 +206,11 @@ impl Loader {
                         Some(&o) => o,
                         None => *slots.entry((path.clone(), i)).or_insert_with(|| {
                             materials.push(m.material.clone());
-                            materials.len() as u32 - 1
+                            let index = materials.len() as u32 - 1;
+                            if let Some(c) = &m.cutout {
+                                self.cutouts.borrow_mut().insert(index, c.clone());
+                            }
+                            index
                         }),
                     };
                     (Some(index), m.emission.clone())

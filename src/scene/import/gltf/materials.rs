@@ -6,7 +6,9 @@ use gltf::texture::{MagFilter, WrappingMode};
 
 use super::buffers::{percent_decode, read_uri};
 use super::Context;
-use crate::material::{Ior, Material, NormalMap, OpaqueTexels, PbrMaterial, Reflectance};
+use crate::material::{
+    Cutout, CutoutMode, Ior, Material, NormalMap, OpaqueTexels, PbrMaterial, Reflectance,
+};
 use crate::medium::Medium;
 use crate::scene::import::AssetMaterial;
 use crate::scene::Emission;
@@ -141,10 +143,27 @@ impl Context<'_> {
             )
             .map(|texture| NormalMap { texture, scale })
         });
-        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.ignored
-                .insert("alphaMode BLEND/MASK (surfaces are opaque)".into());
-        }
+        let [.., alpha] = pbr.base_color_factor();
+        let cutout_mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => None,
+            gltf::material::AlphaMode::Mask => Some(CutoutMode::Mask {
+                cutoff: m.alpha_cutoff().unwrap_or(0.5),
+            }),
+            gltf::material::AlphaMode::Blend => Some(CutoutMode::Blend),
+        };
+        let cutout = cutout_mode.map(|mode| Cutout {
+            factor: alpha.clamp(0.0, 1.0),
+            texture: pbr.base_color_texture().and_then(|info| {
+                self.texture(
+                    info.texture(),
+                    info.tex_coord(),
+                    info.texture_transform(),
+                    Encoding::Alpha,
+                    "baseColorTexture",
+                )
+            }),
+            mode,
+        });
         let ior = m
             .ior()
             .filter(|n| n.is_finite() && *n >= 1.0)
@@ -240,6 +259,7 @@ impl Context<'_> {
             name,
             material,
             emission,
+            cutout,
         }
     }
 }

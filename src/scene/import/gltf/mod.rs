@@ -21,8 +21,12 @@
 //! - KHR_texture_transform on every texture; samplers' wrap modes, and
 //!   nearest magnification.
 //!
-//! Ignored, and listed once per file: alpha blending and masks (surfaces
-//! are opaque), texture coordinate sets other than 0, transmission textures,
+//! - alphaMode MASK and BLEND → cut-outs (`material::cutout`): alpha from
+//!   baseColorFactor × baseColorTexture, tested against alphaCutoff or
+//!   kept with probability alpha.
+//!
+//! Ignored, and listed once per file: texture coordinate sets other than 0,
+//! transmission textures,
 //! KHR_materials_volume's thickness (a rasteriser's stand-in for the
 //! geometry prism traces), and every other extension. occlusionTexture is not used by design: a path
 //! tracer computes occlusion. Cameras: perspective ones (orthographic are
@@ -98,6 +102,7 @@ pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
             normal_map: None,
         })),
         emission: None,
+        cutout: None,
     });
 
     let scene = gltf
