@@ -68,6 +68,8 @@ const BINS: usize = 16;
 const MAX_LEAF: usize = 8;
 /// Cost of visiting a node relative to one triangle test.
 const TRAVERSAL_COST: f32 = 1.0;
+/// Subtrees of at least this many primitives build their halves in parallel.
+const PARALLEL_MIN: usize = 16 * 1024;
 /// Past this depth the build splits at the median, which bounds the tree's depth.
 const SAH_MAX_DEPTH: usize = 40;
 /// Traversal stack entries: up to three per wide level, and a wide level
@@ -349,10 +351,37 @@ fn build_range(
     };
 
     let (left, right) = prims.split_at_mut(mid);
-    build_range(left, first, depth + 1, nodes);
-    let second = build_range(right, first + mid, depth + 1, nodes);
+    if n < PARALLEL_MIN {
+        build_range(left, first, depth + 1, nodes);
+        let second = build_range(right, first + mid, depth + 1, nodes);
+        nodes[index].set_interior(second as u32);
+        return index;
+    }
+    // Big subtrees build on two threads into lists of their own, appended
+    // in the order the serial build makes: the same tree either way.
+    let subtree = |prims: &mut [BuildPrim], first: usize| {
+        let mut own = Vec::with_capacity(2 * prims.len());
+        build_range(prims, first, depth + 1, &mut own);
+        own
+    };
+    let (l, r) = rayon::join(|| subtree(left, first), || subtree(right, first + mid));
+    append_shifted(nodes, l);
+    let second = nodes.len();
+    append_shifted(nodes, r);
     nodes[index].set_interior(second as u32);
     index
+}
+
+/// Appends a subtree built in a list of its own: its interior nodes' links
+/// move by where it lands (leaves' primitive offsets are absolute already).
+fn append_shifted(nodes: &mut Vec<Node>, subtree: Vec<Node>) {
+    let base = nodes.len() as u32;
+    nodes.extend(subtree.into_iter().map(|mut node| {
+        if node.count() == 0 {
+            node.set_interior(node.offset() + base);
+        }
+        node
+    }));
 }
 
 fn largest_axis(v: Vec3) -> usize {
@@ -371,27 +400,95 @@ fn median_split(prims: &mut [BuildPrim], axis: usize) -> usize {
     mid
 }
 
+/// Primitive counts and bounds per bin, for each axis.
+#[derive(Clone, Copy)]
+struct Bins {
+    bounds: [[Aabb; BINS]; 3],
+    count: [[usize; BINS]; 3],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        bounds: [[Aabb::EMPTY; BINS]; 3],
+        count: [[0; BINS]; 3],
+    };
+
+    /// Bins `prims` on all three axes in one pass over them.
+    fn of(prims: &[BuildPrim], binner: &Binner) -> Bins {
+        let mut bins = Bins::EMPTY;
+        for p in prims {
+            for (axis, b) in binner.bins(p).into_iter().enumerate() {
+                bins.bounds[axis][b] = bins.bounds[axis][b].union(p.bounds);
+                bins.count[axis][b] += 1;
+            }
+        }
+        bins
+    }
+
+    fn merge(mut self, other: Bins) -> Bins {
+        for axis in 0..3 {
+            for b in 0..BINS {
+                self.bounds[axis][b] = self.bounds[axis][b].union(other.bounds[axis][b]);
+                self.count[axis][b] += other.count[axis][b];
+            }
+        }
+        self
+    }
+}
+
+/// Maps centroids to bins on each axis (bin 0 on a flat axis).
+struct Binner {
+    lo: Vec3,
+    scale: Vec3,
+}
+
+impl Binner {
+    fn new(centroids: &Aabb) -> Self {
+        let ext = centroids.diagonal();
+        let scale = Vec3::select(
+            ext.cmpgt(Vec3::ZERO),
+            Vec3::splat(BINS as f32) / ext,
+            Vec3::ZERO,
+        );
+        Self {
+            lo: centroids.min,
+            scale,
+        }
+    }
+
+    #[inline]
+    fn bins(&self, p: &BuildPrim) -> [usize; 3] {
+        let b = ((p.centroid - self.lo) * self.scale).to_array();
+        b.map(|x| (x as usize).min(BINS - 1))
+    }
+
+    /// The bin along one axis (as `bins` gives it).
+    #[inline]
+    fn bin(&self, p: &BuildPrim, axis: usize) -> usize {
+        (((p.centroid[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(BINS - 1)
+    }
+}
+
 /// Binned SAH over all three axes. Partitions `prims` and returns the split
 /// point, or None when keeping a leaf is cheaper (or nothing separates).
 fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option<usize> {
+    use rayon::prelude::*;
     let n = prims.len();
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bins on the left)
-    let bin_of = |p: &BuildPrim, axis: usize| {
-        let lo = centroids.min[axis];
-        let ext = centroids.max[axis] - lo;
-        (((p.centroid[axis] - lo) / ext * BINS as f32) as usize).min(BINS - 1)
+    let binner = Binner::new(centroids);
+    let bins = if n >= 4 * PARALLEL_MIN {
+        prims
+            .par_chunks(PARALLEL_MIN)
+            .map(|chunk| Bins::of(chunk, &binner))
+            .reduce(|| Bins::EMPTY, Bins::merge)
+    } else {
+        Bins::of(prims, &binner)
     };
     for axis in 0..3 {
         if centroids.max[axis] <= centroids.min[axis] {
             continue;
         }
-        let mut bin_bounds = [Aabb::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        for p in prims.iter() {
-            let b = bin_of(p, axis);
-            bin_bounds[b] = bin_bounds[b].union(p.bounds);
-            bin_count[b] += 1;
-        }
+        let (bin_bounds, bin_count) = (&bins.bounds[axis], &bins.count[axis]);
         // Sweep from the right to get suffix areas, then from the left.
         let mut right_area = [0.0f32; BINS];
         let mut right_count = [0usize; BINS];
@@ -424,7 +521,7 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option
     }
     let mut mid = 0;
     for i in 0..n {
-        if bin_of(&prims[i], axis) < left_bins {
+        if binner.bin(&prims[i], axis) < left_bins {
             prims.swap(i, mid);
             mid += 1;
         }
@@ -451,6 +548,37 @@ mod tests {
                 [v(), v(), v()]
             })
             .collect()
+    }
+
+    #[test]
+    fn the_parallel_build_makes_the_serial_tree() {
+        // Big enough for parallel subtrees and parallel binning at the top.
+        let tris = random_triangles(100_000, 3);
+        let bounds: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
+        let build = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| Bvh::build(&bounds))
+        };
+        let (a, order_a) = build(1);
+        let (b, order_b) = build(4);
+        assert_eq!(order_a, order_b);
+        assert_eq!(a.node_count(), b.node_count());
+        for (x, y) in a.nodes.iter().zip(&b.nodes) {
+            assert_eq!((x.child, x.count), (y.child, y.count));
+            for axis in 0..3 {
+                assert_eq!(
+                    x.lo[axis].to_array().map(f32::to_bits),
+                    y.lo[axis].to_array().map(f32::to_bits)
+                );
+                assert_eq!(
+                    x.hi[axis].to_array().map(f32::to_bits),
+                    y.hi[axis].to_array().map(f32::to_bits)
+                );
+            }
+        }
     }
 
     #[test]

@@ -26,8 +26,6 @@
 //! Texture names may use Windows separators and differ in case from the
 //! files (with a warning).
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
@@ -48,23 +46,28 @@ fn roughness_from_phong(ns: f32) -> f32 {
 /// Reads an OBJ file and its materials. `smooth`: use the file's vertex
 /// normals where every vertex of a piece has one.
 pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<Asset, String> {
-    let file = File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     // Polygons are triangulated here, in their own plane (tobj fans them,
-    // which fills concave faces).
+    // which fills concave faces). Vertices with texture coordinates or
+    // normals are merged per index triple (a hash map in tobj); files of
+    // positions alone, as scans are, skip that. (Any "vt" or "vn" in the
+    // text counts, comments included: a false alarm only costs the merge.)
+    let has_attributes = bytes.windows(2).any(|w| w == b"vt" || w == b"vn");
     let options = tobj::LoadOptions {
         triangulate: false,
-        single_index: true,
+        single_index: has_attributes,
         ..Default::default()
     };
     // tobj's material loader is a `Fn`: note the library's path in a cell.
     let mtl_path: std::cell::RefCell<Option<PathBuf>> = Default::default();
-    let (models, materials) = tobj::load_obj_buf(&mut BufReader::new(file), &options, |p| {
-        let full = base.join(p);
-        *mtl_path.borrow_mut() = Some(full.clone());
-        tobj::load_mtl(&full)
-    })
-    .map_err(|e| format!("cannot read OBJ: {e}"))?;
+    let (models, materials) =
+        tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |p| {
+            let full = base.join(p);
+            *mtl_path.borrow_mut() = Some(full.clone());
+            tobj::load_mtl(&full)
+        })
+        .map_err(|e| format!("cannot read OBJ: {e}"))?;
 
     let mtl_path = mtl_path.into_inner();
     let mut asset = Asset::default();
