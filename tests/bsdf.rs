@@ -249,7 +249,75 @@ fn pbr(base: f32, metallic: f32, roughness: f32) -> Material {
         metallic_roughness: None,
         ior: 1.5,
         normal_map: None,
+        layers: Default::default(),
     }))
+}
+
+/// `pbr` with the glTF extension layers: specular (weight, colour),
+/// clear coat (weight, roughness), thin film (weight, thickness nm).
+fn layered(
+    base: f32,
+    metallic: f32,
+    roughness: f32,
+    specular: Option<(f32, [f32; 3])>,
+    clearcoat: Option<(f32, f32)>,
+    film: Option<(f32, f32)>,
+) -> Material {
+    use prism::material::{ClearcoatLayer, IridescenceLayer, PbrLayers, SpecularLayer};
+    let Material::Pbr(mut m) = pbr(base, metallic, roughness) else {
+        unreachable!()
+    };
+    m.layers = PbrLayers {
+        specular: specular.map(|(weight, c)| SpecularLayer {
+            weight,
+            colour: Spectrum::rgb_unbounded(Vec3::from(c)),
+        }),
+        clearcoat: clearcoat.map(|(weight, roughness)| ClearcoatLayer { weight, roughness }),
+        iridescence: film.map(|(weight, t)| IridescenceLayer {
+            weight,
+            ior: 1.3,
+            thickness: [100.0, t],
+            thickness_texture: None,
+        }),
+    };
+    Material::Pbr(m)
+}
+
+/// The layered materials every BSDF test takes.
+fn layered_cases() -> Vec<(&'static str, Material)> {
+    vec![
+        (
+            "specular ½ tinted",
+            layered(0.8, 0.0, 0.4, Some((0.5, [1.0, 0.6, 0.3])), None, None),
+        ),
+        (
+            "clear coat over rough plastic",
+            layered(0.7, 0.0, 0.7, None, Some((1.0, 0.35)), None),
+        ),
+        (
+            "clear coat over metal",
+            layered(0.9, 1.0, 0.5, None, Some((0.6, 0.3)), None),
+        ),
+        (
+            "thin film on plastic",
+            layered(0.5, 0.0, 0.3, None, None, Some((1.0, 450.0))),
+        ),
+        (
+            "thin film on metal",
+            layered(0.8, 1.0, 0.3, None, None, Some((0.8, 300.0))),
+        ),
+        (
+            "all three",
+            layered(
+                0.6,
+                0.3,
+                0.5,
+                Some((0.8, [0.9, 1.0, 1.2])),
+                Some((0.5, 0.35)),
+                Some((0.7, 380.0)),
+            ),
+        ),
+    ]
 }
 
 fn incident(theta_deg: f32) -> Vec3 {
@@ -294,6 +362,16 @@ fn chi2_sampling_matches_evaluation() {
             cases.push((
                 format!("glTF pbr metallic {metallic} roughness {roughness} θ {theta}"),
                 pbr(0.7, metallic, roughness),
+                incident(theta),
+                1.0,
+            ));
+        }
+    }
+    for (name, m) in layered_cases() {
+        for theta in [20.0f32, 75.0] {
+            cases.push((
+                format!("glTF layers: {name} θ {theta}"),
+                m.clone(),
                 incident(theta),
                 1.0,
             ));
@@ -437,6 +515,25 @@ fn gltf_brdf_conserves_energy_and_sampling_matches_quadrature() {
             assert!(mc <= 1.0 + 4.0 * se, "gains energy: {mc}");
         }
     }
+    // With the extension layers, on a white base: never above 1, and
+    // sampling agrees with the quadrature.
+    for (name, m) in layered_cases() {
+        let Material::Pbr(mut white) = m else {
+            unreachable!()
+        };
+        white.base_color = Spectrum::Constant(1.0).into();
+        let m = Material::Pbr(white);
+        for theta in [10.0f32, 70.0] {
+            let b = bsdf(&m, incident(theta), 1.0);
+            let ((mc, se), quad) = albedo(&b, theta as u64 + 3);
+            eprintln!("glTF layers {name}, white base, θ {theta}: albedo {mc:.4} ± {se:.4} (sampled), {quad:.4} (quadrature)");
+            assert!(
+                (mc - quad).abs() < 4.0 * se + 0.01 * quad,
+                "{name} θ {theta}: {mc} ± {se} vs {quad}"
+            );
+            assert!(quad <= 1.0 + 0.01, "{name} θ {theta}: gains energy: {quad}");
+        }
+    }
     // A black dielectric base still reflects the coat: ≈ 4% at normal
     // incidence for index 1.5 (Schlick F0 = 0.04), a little less when rough.
     let b = bsdf(&pbr(0.0, 0.0, 0.1), incident(0.0), 1.0);
@@ -495,7 +592,10 @@ fn reflection_is_reciprocal() {
         conductor(0.8),
         pbr(0.6, 0.0, 0.4),
         pbr(0.6, 0.5, 0.7),
-    ] {
+    ]
+    .into_iter()
+    .chain(layered_cases().into_iter().map(|(_, m)| m))
+    {
         for _ in 0..200 {
             let a = direction(
                 s.next_f32() as f64 * 0.98 + 0.01,

@@ -199,16 +199,19 @@ fn gltf_materials_map_to_spectral_materials() {
         .map(|m| format!("{}, \"material\":{m}}}", assets::quad(&mut b, true)))
         .collect();
     let json = b.json(&format!(
-        r#""extensionsUsed":["KHR_materials_transmission","KHR_materials_ior","KHR_materials_dispersion","KHR_materials_emissive_strength","KHR_materials_clearcoat"],
+        r#""extensionsUsed":["KHR_materials_transmission","KHR_materials_ior","KHR_materials_dispersion","KHR_materials_emissive_strength","KHR_materials_clearcoat","KHR_materials_iridescence","KHR_materials_specular","KHR_materials_anisotropy"],
         "scenes":[{{"nodes":[0,1,2,3]}}],
         "nodes":[{{"mesh":0}},{{"mesh":1,"translation":[3,0,0]}},{{"mesh":2,"translation":[6,0,0]}},{{"mesh":3,"translation":[9,0,0]}}],
         "meshes":[{{"name":"a","primitives":[{}]}},{{"name":"b","primitives":[{}]}},{{"name":"c","primitives":[{}]}},{{"name":"d","primitives":[{}]}}],
         "materials":[
-          {{"name":"gold","pbrMetallicRoughness":{{"baseColorFactor":[1,0.8,0.3,1],"metallicFactor":1,"roughnessFactor":0.25}}}},
+          {{"name":"gold","pbrMetallicRoughness":{{"baseColorFactor":[1,0.8,0.3,1],"metallicFactor":1,"roughnessFactor":0.25}},
+            "extensions":{{"KHR_materials_clearcoat":{{"clearcoatFactor":0.8,"clearcoatRoughnessFactor":0.1,"clearcoatTexture":{{"index":0}}}},
+              "KHR_materials_iridescence":{{"iridescenceFactor":1,"iridescenceIor":1.4,"iridescenceThicknessMaximum":420}},
+              "KHR_materials_specular":{{"specularFactor":0.5,"specularColorFactor":[1,0.5,0.25]}}}}}},
           {{"name":"glass","pbrMetallicRoughness":{{"metallicFactor":0,"roughnessFactor":0}},
             "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}},"KHR_materials_ior":{{"ior":1.6}},"KHR_materials_dispersion":{{"dispersion":0.5}}}}}},
           {{"name":"lamp","emissiveFactor":[1,0.5,0.25],"doubleSided":true,
-            "extensions":{{"KHR_materials_emissive_strength":{{"emissiveStrength":4}},"KHR_materials_clearcoat":{{"clearcoatFactor":1}}}}}},
+            "extensions":{{"KHR_materials_emissive_strength":{{"emissiveStrength":4}},"KHR_materials_anisotropy":{{"anisotropyStrength":1}}}}}},
           {{"name":"plastic","pbrMetallicRoughness":{{"baseColorFactor":[0.2,0.4,0.8,1],"metallicFactor":0,"roughnessFactor":0.5}},"alphaMode":"BLEND"}}
         ]"#,
         prims[0], prims[1], prims[2], prims[3]
@@ -222,6 +225,17 @@ fn gltf_materials_map_to_spectral_materials() {
     match at(0.0).1 {
         Material::Pbr(m) => {
             assert_eq!((m.metallic, m.roughness, m.ior), (1.0, 0.25, 1.5));
+            let l = &m.layers;
+            let c = l.clearcoat.expect("clear coat mapped");
+            assert_eq!((c.weight, c.roughness), (0.8, 0.1));
+            let i = l.iridescence.as_ref().expect("iridescence mapped");
+            assert_eq!((i.weight, i.ior, i.thickness), (1.0, 1.4, [100.0, 420.0]));
+            let s = l.specular.as_ref().expect("specular mapped");
+            assert_eq!(s.weight, 0.5);
+            assert!(
+                s.colour.eval(450.0) < s.colour.eval(650.0),
+                "reddish specular colour"
+            );
         }
         other => panic!("gold: {other:?}"),
     }
@@ -275,7 +289,12 @@ fn gltf_materials_map_to_spectral_materials() {
         .collect();
     assert_eq!(ignored.len(), 1, "{:?}", s.warnings);
     assert!(
-        ignored[0].contains("KHR_materials_clearcoat"),
+        ignored[0].contains("KHR_materials_anisotropy") && ignored[0].contains("clearcoatTexture"),
+        "{}",
+        ignored[0]
+    );
+    assert!(
+        !ignored[0].contains("KHR_materials_clearcoat,"),
         "{}",
         ignored[0]
     );

@@ -250,6 +250,57 @@ def write_glb():
     g.write(OUT / "spheres.glb", doc)
 
 
+def write_layers_glb():
+    """Spheres with the glTF extension layers prism maps: thin films
+    (KHR_materials_iridescence: an oil film on a dark base, an anodised metal),
+    a clear coat over red plastic and a tinted specular (KHR_materials_clearcoat,
+    KHR_materials_specular), on a grey floor under a panel light."""
+    g = Glb()
+    ball = sphere(32, 64)
+    meshes = [g.mesh("floor", quad(10.0), 0), g.mesh("panel", quad(1.0), 1)]
+    materials = [
+        {"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 0.8}},
+        {
+            "name": "lamp",
+            "emissiveFactor": [1, 1, 1],
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 10}},
+            "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0},
+        },
+    ]
+    balls = [
+        ("oil film", {"baseColorFactor": [0.02, 0.02, 0.025, 1], "metallicFactor": 0, "roughnessFactor": 0.05},
+         {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": 1.45, "iridescenceThicknessMaximum": 380}}),
+        ("anodised titanium", {"baseColorFactor": [0.55, 0.52, 0.5, 1], "metallicFactor": 1, "roughnessFactor": 0.2},
+         {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": 2.0, "iridescenceThicknessMaximum": 260}}),
+        ("clear-coated red", {"baseColorFactor": [0.6, 0.04, 0.03, 1], "metallicFactor": 0, "roughnessFactor": 0.6},
+         {"KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.05}}),
+        ("tinted specular", {"baseColorFactor": [0.05, 0.1, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.3},
+         {"KHR_materials_specular": {"specularFactor": 1, "specularColorFactor": [1.0, 0.8, 0.3]}}),
+    ]
+    nodes = [{"name": "floor", "mesh": 0},
+             {"name": "light", "mesh": 1, "translation": [0, 4, 1], "rotation": [1, 0, 0, 0], "scale": [4, 1, 2]}]
+    for i, (name, pbr, ext) in enumerate(balls):
+        materials.append({"name": name, "pbrMetallicRoughness": pbr, "extensions": ext})
+        meshes.append(g.mesh(name, ball, len(materials) - 1))
+        nodes.append({"name": name, "mesh": len(meshes) - 1, "translation": [-2.1 + 1.4 * i, 0.6, 0], "scale": [0.6, 0.6, 0.6]})
+    nodes.append({
+        "name": "camera", "camera": 0, "translation": [0, 1.5, 5.5],
+        "rotation": [-math.sin(math.radians(6)), 0, 0, math.cos(math.radians(6))],
+    })
+    doc = {
+        "asset": {"version": "2.0", "generator": "prism tools/gen_assets.py"},
+        "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_iridescence",
+                           "KHR_materials_clearcoat", "KHR_materials_specular"],
+        "scene": 0,
+        "scenes": [{"nodes": list(range(len(nodes)))}],
+        "nodes": nodes,
+        "cameras": [{"name": "view", "type": "perspective", "perspective": {"yfov": 0.55, "znear": 0.1}}],
+        "meshes": meshes,
+        "materials": materials,
+    }
+    g.write(OUT / "layers.glb", doc)
+
+
 OBJ = """# A room made of quads, n-gons and per-face materials (tools/gen_assets.py)
 mtllib room.mtl
 o floor
@@ -383,6 +434,7 @@ if __name__ == "__main__":
     else:
         OUT.mkdir(parents=True, exist_ok=True)
         write_glb()
+        write_layers_glb()
         write_obj()
         (OUT / "studio.hdr").write_bytes(hdr(512, 256, studio))
         print(f"wrote {OUT}")

@@ -13,6 +13,7 @@ pub mod ior;
 pub mod metals;
 pub mod microfacet;
 pub mod pbr;
+pub mod thin_film;
 
 use glam::{Vec2, Vec3, Vec4};
 
@@ -67,6 +68,45 @@ pub struct PbrMaterial {
     /// Index of refraction of the dielectric coat (KHR_materials_ior).
     pub ior: f32,
     pub normal_map: Option<NormalMap>,
+    /// The glTF extensions layered on it.
+    pub layers: PbrLayers,
+}
+
+/// glTF extensions layered on the metallic-roughness BRDF (see
+/// [`pbr::LobeLayers`] for how each enters it).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PbrLayers {
+    /// KHR_materials_specular.
+    pub specular: Option<SpecularLayer>,
+    /// KHR_materials_clearcoat.
+    pub clearcoat: Option<ClearcoatLayer>,
+    /// KHR_materials_iridescence.
+    pub iridescence: Option<IridescenceLayer>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecularLayer {
+    /// specularFactor: the coat's weight and F90.
+    pub weight: f32,
+    /// specularColorFactor: tints the coat's F0.
+    pub colour: Spectrum,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClearcoatLayer {
+    pub weight: f32,
+    pub roughness: f32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct IridescenceLayer {
+    pub weight: f32,
+    /// The film's index (iridescenceIor).
+    pub ior: f32,
+    /// Thickness in nm: minimum and maximum (the texture's green channel
+    /// goes between them; without a texture, the maximum).
+    pub thickness: [f32; 2],
+    pub thickness_texture: Option<TextureRef>,
 }
 
 /// A transmissive glTF material whose metalness is textured: a texel is
@@ -296,13 +336,38 @@ fn pbr_bsdf(m: &PbrMaterial, geom: &ShadingGeometry, uv: Vec2, wl: &SampledWavel
         metallic *= v.z;
     }
     let (frame, ng) = facing_frame(geom);
-    let lobe = PbrLobe::new(
+    let mut lobe = PbrLobe::new(
         m.base_color.sample(uv, wl),
         metallic,
         microfacet::alpha_from_roughness(roughness),
         m.ior,
     );
+    if m.layers != PbrLayers::default() {
+        lobe = lobe.with_layers(lobe_layers(&m.layers, uv, wl));
+    }
     Bsdf::new(frame, ng, Lobe::Pbr(lobe), geom.wo)
+}
+
+/// The extension layers at `uv` for the path's wavelengths.
+fn lobe_layers(layers: &PbrLayers, uv: Vec2, wl: &SampledWavelengths) -> pbr::LobeLayers {
+    let mut at = pbr::LobeLayers::default();
+    if let Some(s) = &layers.specular {
+        at.specular_weight = s.weight;
+        at.specular_colour = s.colour.sample(wl);
+    }
+    if let Some(c) = &layers.clearcoat {
+        at.clearcoat = Some((c.weight, microfacet::alpha_from_roughness(c.roughness)));
+    }
+    if let Some(i) = &layers.iridescence {
+        let t = i.thickness_texture.as_ref().map_or(1.0, |t| t.linear(uv).y);
+        at.film = Some(pbr::FilmAt {
+            weight: i.weight,
+            ior: i.ior,
+            thickness: i.thickness[0] + (i.thickness[1] - i.thickness[0]) * t,
+            lambda: wl.lambda,
+        });
+    }
+    at
 }
 
 /// A frame whose normal is the shading normal turned to the side of the

@@ -16,6 +16,20 @@
 //! which is reciprocal and never reflects more than arrives.
 //! Sampling picks the specular lobe (visible normals) or the diffuse one
 //! (cosine) by their estimated weights.
+//!
+//! Layers of the glTF extensions ([`LobeLayers`]):
+//! - KHR_materials_specular: the dielectric Fresnel becomes
+//!   s·(F0·c + (1 − F0·c)·w) (specularFactor s, specularColor c), the base
+//!   coupled by (1 − s·F0·c): energy stays below 1 (s scales the coat, the
+//!   rest goes to the base as for s = 1);
+//! - KHR_materials_iridescence: a thin film over the coat and the metal;
+//!   their Fresnel factors blend towards the film's Airy reflectance,
+//!   evaluated exactly per wavelength (`thin_film`), the metal's base index
+//!   taken from its colour;
+//! - KHR_materials_clearcoat: a GGX coat of index 1.5 over everything,
+//!   f = (1 − c·F_cc)·f_base + c·F_cc·S_cc with F_cc Schlick's (F0 = 0.04) at
+//!   the half vector, as the extension defines it; sampled in proportion to
+//!   its estimated weight.
 
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -24,6 +38,7 @@ use glam::Vec3;
 use super::bsdf::{to_side_of, upper, BsdfEval, BsdfFlags, LobeSample, TransportMode};
 use super::cosine_hemisphere;
 use super::microfacet::{reflect, Ggx};
+use super::thin_film;
 use crate::spectrum::SampledSpectrum;
 
 /// Smallest α used: below it the specular lobe would be a Dirac delta and a
@@ -34,10 +49,68 @@ pub const MIN_ALPHA: f32 = 2e-3;
 pub struct PbrLobe {
     base: SampledSpectrum,
     metallic: f32,
-    f0: f32,
+    /// The coat's normal-incidence reflectance per wavelength (specular
+    /// colour included), before the specular weight.
+    f0: SampledSpectrum,
+    /// The coat's index (for the thin film's base).
+    ior: f32,
     ggx: Ggx,
     mean_base: f32,
+    layers: LobeLayers,
 }
+
+/// The glTF extension layers at one hit, for the path's wavelengths.
+#[derive(Clone, Copy, Debug)]
+pub struct LobeLayers {
+    /// specularFactor: the coat's weight (and F90).
+    pub specular_weight: f32,
+    /// specularColorFactor × texture, per wavelength: tints the coat's F0.
+    pub specular_colour: SampledSpectrum,
+    /// Thin film: weight, index, thickness (nm), at these wavelengths.
+    pub film: Option<FilmAt>,
+    /// Clear coat: weight and GGX α.
+    pub clearcoat: Option<(f32, f32)>,
+}
+
+impl Default for LobeLayers {
+    fn default() -> Self {
+        Self {
+            specular_weight: 1.0,
+            specular_colour: SampledSpectrum::ONE,
+            film: None,
+            clearcoat: None,
+        }
+    }
+}
+
+/// A thin film as one hit sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct FilmAt {
+    pub weight: f32,
+    pub ior: f32,
+    pub thickness: f32,
+    pub lambda: glam::Vec4,
+}
+
+impl FilmAt {
+    /// The film's reflectance per wavelength at `cos`, over a base of
+    /// index `base` per wavelength.
+    fn reflectance(&self, cos: f32, base: SampledSpectrum) -> SampledSpectrum {
+        let mut r = [0.0; 4];
+        for (k, r) in r.iter_mut().enumerate() {
+            *r = thin_film::reflectance(cos, self.lambda[k], self.ior, self.thickness, base[k]);
+        }
+        SampledSpectrum::from_array(r)
+    }
+
+    /// `plain` blended towards the film's `film` by the film's weight.
+    fn blend(&self, plain: SampledSpectrum, film: SampledSpectrum) -> SampledSpectrum {
+        plain + (film - plain) * self.weight
+    }
+}
+
+/// Index of refraction of the clear coat (the extension fixes it).
+const CLEARCOAT_F0: f32 = 0.04;
 
 fn schlick_weight(cos: f32) -> f32 {
     let m = (1.0 - cos).clamp(0.0, 1.0);
@@ -53,10 +126,81 @@ impl PbrLobe {
         Self {
             base,
             metallic: metallic.clamp(0.0, 1.0),
-            f0: ((ior - 1.0) / (ior + 1.0)).powi(2),
+            f0: SampledSpectrum::splat(((ior - 1.0) / (ior + 1.0)).powi(2)),
+            ior,
             ggx: Ggx::new(alpha.max(MIN_ALPHA)),
             mean_base: base.element_sum() * 0.25,
+            layers: LobeLayers::default(),
         }
+    }
+
+    /// The lobe with the glTF extension layers.
+    pub fn with_layers(mut self, layers: LobeLayers) -> Self {
+        self.f0 =
+            (self.f0 * layers.specular_colour.max(SampledSpectrum::ZERO)).min(SampledSpectrum::ONE);
+        self.layers = LobeLayers {
+            specular_weight: layers.specular_weight.clamp(0.0, 1.0),
+            clearcoat: layers
+                .clearcoat
+                .filter(|c| c.0 > 0.0)
+                .map(|(w, a)| (w.min(1.0), a.max(MIN_ALPHA))),
+            film: layers.film.filter(|f| f.weight > 0.0),
+            ..layers
+        };
+        self
+    }
+
+    /// The coat's Fresnel factor per wavelength at `cos` (to the half
+    /// vector): specular weight, colour and thin film applied.
+    fn coat_fresnel(&self, cos: f32) -> SampledSpectrum {
+        let s = self.layers.specular_weight;
+        let w = schlick_weight(cos);
+        let plain = (self.f0 + (SampledSpectrum::ONE - self.f0) * w) * s;
+        match &self.layers.film {
+            Some(film) => film.blend(
+                plain,
+                film.reflectance(cos, SampledSpectrum::splat(self.ior)) * s,
+            ),
+            None => plain,
+        }
+    }
+
+    /// The coat's normal-incidence reflectance, which the base under it loses.
+    fn coat_r0(&self) -> SampledSpectrum {
+        let s = self.layers.specular_weight;
+        match &self.layers.film {
+            Some(film) => film.blend(
+                self.f0 * s,
+                film.reflectance(1.0, SampledSpectrum::splat(self.ior)) * s,
+            ),
+            None => self.f0 * s,
+        }
+    }
+
+    /// The metal's Fresnel factor per wavelength at `cos`.
+    fn metal_fresnel(&self, cos: f32) -> SampledSpectrum {
+        let plain = self.base + (SampledSpectrum::ONE - self.base) * schlick_weight(cos);
+        match &self.layers.film {
+            Some(film) => {
+                let n =
+                    SampledSpectrum::from_array(self.base.to_array().map(thin_film::ior_from_f0));
+                film.blend(plain, film.reflectance(cos, n))
+            }
+            None => plain,
+        }
+    }
+
+    /// The clear coat's weight c·F_cc at `cos`, and its GGX.
+    fn clearcoat(&self, cos: f32) -> Option<(f32, Ggx)> {
+        let (weight, alpha) = self.layers.clearcoat?;
+        let f = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(cos);
+        Some((weight * f, Ggx::new(alpha)))
+    }
+
+    /// Probability of sampling the clear coat from `wo` (0 without one).
+    fn p_clearcoat(&self, wo: Vec3) -> f32 {
+        self.clearcoat(wo.z.abs())
+            .map_or(0.0, |(w, _)| w.clamp(0.05, 0.5))
     }
 
     pub fn flags(&self) -> BsdfFlags {
@@ -70,7 +214,8 @@ impl PbrLobe {
     /// Probability of sampling the specular lobe, from the lobes' weights
     /// as seen from `wo` (macro-normal Fresnel estimate).
     fn p_specular(&self, wo: Vec3) -> f32 {
-        let (metallic, f0, mean_base) = (self.metallic, self.f0, self.mean_base);
+        let f0 = self.f0.element_sum() * 0.25 * self.layers.specular_weight;
+        let (metallic, mean_base) = (self.metallic, self.mean_base);
         let w = schlick_weight(wo.z.abs());
         let spec = metallic * (mean_base + (1.0 - mean_base) * w)
             + (1.0 - metallic) * (f0 + (1.0 - f0) * w);
@@ -94,21 +239,24 @@ impl PbrLobe {
             return BsdfEval::ZERO;
         }
         let wm = (wo + wi).normalize();
-        let w = schlick_weight(wo.dot(wm).abs());
+        let cos_h = wo.dot(wm).abs();
         let s = self.ggx.reflection(wo, wi, wm);
-        let f_d = self.f0 + (1.0 - self.f0) * w;
-        let f_c = self.base + (SampledSpectrum::ONE - self.base) * w;
+        let f_d = self.coat_fresnel(cos_h);
+        let f_c = self.metal_fresnel(cos_h);
         let coupling = 28.0 / (23.0 * PI)
-            * (1.0 - self.f0)
             * (1.0 - schlick_weight(0.5 * wi.z))
             * (1.0 - schlick_weight(0.5 * wo.z));
-        let dielectric = self.base * coupling + SampledSpectrum::splat(f_d * s);
+        let dielectric = self.base * (SampledSpectrum::ONE - self.coat_r0()) * coupling + f_d * s;
         let p_specular = self.p_specular(wo);
-        BsdfEval {
-            f: dielectric * (1.0 - self.metallic) + f_c * (self.metallic * s),
-            pdf: p_specular * self.ggx.reflection_pdf(wo, wm)
-                + (1.0 - p_specular) * wi.z * FRAC_1_PI,
+        let mut f = dielectric * (1.0 - self.metallic) + f_c * (self.metallic * s);
+        let mut pdf =
+            p_specular * self.ggx.reflection_pdf(wo, wm) + (1.0 - p_specular) * wi.z * FRAC_1_PI;
+        if let Some((c, coat)) = self.clearcoat(cos_h) {
+            f = f * (1.0 - c) + SampledSpectrum::splat(c * coat.reflection(wo, wi, wm));
+            let p = self.p_clearcoat(wo);
+            pdf = p * coat.reflection_pdf(wo, wm) + (1.0 - p) * pdf;
         }
+        BsdfEval { f, pdf }
     }
 
     pub fn sample(
@@ -119,6 +267,24 @@ impl PbrLobe {
         mode: TransportMode,
     ) -> Option<LobeSample> {
         let (up, _) = upper(wo, wo);
+        let p_coat = self.p_clearcoat(up);
+        if uc < p_coat {
+            let (_, coat) = self.clearcoat(up.z)?;
+            let wi = reflect(up, coat.sample_wm(up, u));
+            if wi.z <= 0.0 {
+                return None;
+            }
+            let wi = to_side_of(wo, wi);
+            let e = self.eval(wo, wi, mode);
+            return Some(LobeSample::evaluated(
+                wi,
+                e,
+                BsdfFlags::REFLECTION | BsdfFlags::GLOSSY,
+                1.0,
+            ));
+        }
+        // The rest of `uc` picks the base's lobe.
+        let uc = (uc - p_coat) / (1.0 - p_coat);
         let (wi, lobe) = if uc < self.p_specular(up) {
             (reflect(up, self.ggx.sample_wm(up, u)), BsdfFlags::GLOSSY)
         } else {

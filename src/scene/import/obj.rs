@@ -356,6 +356,7 @@ fn material(
             metallic_roughness: None,
             ior: 1.5,
             normal_map: None,
+            layers: Default::default(),
         })),
         _ if ks.max_element() > 0.0 && illum >= 2 => Material::Pbr(Box::new(PbrMaterial {
             base_color: diffuse(),
@@ -364,6 +365,7 @@ fn material(
             metallic_roughness: None,
             ior: ni.unwrap_or(1.5),
             normal_map: None,
+            layers: Default::default(),
         })),
         _ => Material::Diffuse {
             reflectance: diffuse(),

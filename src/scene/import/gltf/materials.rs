@@ -7,7 +7,8 @@ use gltf::texture::{MagFilter, WrappingMode};
 use super::buffers::{percent_decode, read_uri};
 use super::Context;
 use crate::material::{
-    Cutout, CutoutMode, Ior, Material, NormalMap, OpaqueTexels, PbrMaterial, Reflectance,
+    ClearcoatLayer, Cutout, CutoutMode, Ior, IridescenceLayer, Material, NormalMap, OpaqueTexels,
+    PbrLayers, PbrMaterial, Reflectance, SpecularLayer,
 };
 use crate::medium::Medium;
 use crate::scene::import::AssetMaterial;
@@ -104,6 +105,71 @@ impl Context<'_> {
         Some(Box::new(Medium::absorbing(colour, distance)))
     }
 
+    /// KHR_materials_specular, _clearcoat and _iridescence, by their
+    /// factors (their textures are named as ignored).
+    fn layers(&mut self, m: &gltf::Material) -> PbrLayers {
+        let number = |v: &gltf::json::Value, key: &str, default: f32| {
+            v.get(key)
+                .and_then(|x| x.as_f64())
+                .map(|x| x as f32)
+                .filter(|x| x.is_finite())
+                .unwrap_or(default)
+        };
+        let mut textures_ignored = |v: &gltf::json::Value, keys: &[&str]| {
+            for key in keys {
+                if v.get(key).is_some() {
+                    self.ignored.insert(format!("{key} (the factor is used)"));
+                }
+            }
+        };
+        let mut layers = PbrLayers::default();
+        if let Some(v) = m.extension_value("KHR_materials_specular") {
+            textures_ignored(v, &["specularTexture", "specularColorTexture"]);
+            let colour = v
+                .get("specularColorFactor")
+                .and_then(|c| c.as_array())
+                .filter(|c| c.len() == 3)
+                .map(|c| Vec3::from_array([0, 1, 2].map(|i| c[i].as_f64().unwrap_or(1.0) as f32)))
+                .filter(|c| c.is_finite())
+                .unwrap_or(Vec3::ONE)
+                .max(Vec3::ZERO);
+            layers.specular = Some(SpecularLayer {
+                weight: number(v, "specularFactor", 1.0).clamp(0.0, 1.0),
+                colour: Spectrum::rgb_unbounded(colour),
+            });
+        }
+        if let Some(v) = m.extension_value("KHR_materials_clearcoat") {
+            textures_ignored(
+                v,
+                &[
+                    "clearcoatTexture",
+                    "clearcoatRoughnessTexture",
+                    "clearcoatNormalTexture",
+                ],
+            );
+            let weight = number(v, "clearcoatFactor", 0.0).clamp(0.0, 1.0);
+            layers.clearcoat = (weight > 0.0).then(|| ClearcoatLayer {
+                weight,
+                roughness: number(v, "clearcoatRoughnessFactor", 0.0).clamp(0.0, 1.0),
+            });
+        }
+        if let Some(v) = m.extension_value("KHR_materials_iridescence") {
+            textures_ignored(v, &["iridescenceTexture", "iridescenceThicknessTexture"]);
+            let weight = number(v, "iridescenceFactor", 0.0).clamp(0.0, 1.0);
+            let thickness = number(v, "iridescenceThicknessMaximum", 400.0).clamp(0.0, 1e5);
+            layers.iridescence = (weight > 0.0).then(|| IridescenceLayer {
+                weight,
+                ior: number(v, "iridescenceIor", 1.3).clamp(1.0, 5.0),
+                thickness: [
+                    number(v, "iridescenceThicknessMinimum", 100.0).clamp(0.0, 1e5),
+                    thickness,
+                ],
+                thickness_texture: None,
+            });
+        }
+        layers
+    }
+
     pub(super) fn material(&mut self, m: &gltf::Material) -> AssetMaterial {
         let name = m
             .name()
@@ -143,6 +209,7 @@ impl Context<'_> {
             )
             .map(|texture| NormalMap { texture, scale })
         });
+        let layers = self.layers(m);
         let [.., alpha] = pbr.base_color_factor();
         let cutout_mode = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => None,
@@ -204,6 +271,7 @@ impl Context<'_> {
                             metallic_roughness: metallic_roughness.clone(),
                             ior,
                             normal_map: normal_map.clone(),
+                            layers: layers.clone(),
                         },
                         transmission,
                     })
@@ -238,6 +306,7 @@ impl Context<'_> {
                     metallic_roughness,
                     ior,
                     normal_map,
+                    layers,
                 }))
             };
         let strength = m.emissive_strength().unwrap_or(1.0).max(0.0);

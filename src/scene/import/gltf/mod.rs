@@ -21,6 +21,9 @@
 //! - KHR_texture_transform on every texture; samplers' wrap modes, and
 //!   nearest magnification.
 //!
+//! - KHR_materials_specular, KHR_materials_clearcoat and
+//!   KHR_materials_iridescence (thin-film interference, exact per
+//!   wavelength) → layers of that BRDF (`material::pbr`), by their factors;
 //! - alphaMode MASK and BLEND → cut-outs (`material::cutout`): alpha from
 //!   baseColorFactor × baseColorTexture, tested against alphaCutoff or
 //!   kept with probability alpha.
@@ -49,7 +52,10 @@ use buffers::load_buffers;
 use validate::validate;
 
 /// Extensions that are mapped (see the module notes).
-const MAPPED_EXTENSIONS: [&str; 6] = [
+const MAPPED_EXTENSIONS: [&str; 9] = [
+    "KHR_materials_specular",
+    "KHR_materials_clearcoat",
+    "KHR_materials_iridescence",
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_materials_ior",
@@ -100,6 +106,7 @@ pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
             metallic_roughness: None,
             ior: 1.5,
             normal_map: None,
+            layers: Default::default(),
         })),
         emission: None,
         cutout: None,
