@@ -262,8 +262,9 @@ fn layered(
     specular: Option<(f32, [f32; 3])>,
     clearcoat: Option<(f32, f32)>,
     film: Option<(f32, f32)>,
+    sheen: Option<([f32; 3], f32)>,
 ) -> Material {
-    use prism::material::{ClearcoatLayer, IridescenceLayer, PbrLayers, SpecularLayer};
+    use prism::material::{ClearcoatLayer, IridescenceLayer, PbrLayers, SheenLayer, SpecularLayer};
     let Material::Pbr(mut m) = pbr(base, metallic, roughness) else {
         unreachable!()
     };
@@ -279,35 +280,64 @@ fn layered(
             thickness: [100.0, t],
             thickness_texture: None,
         }),
+        sheen: sheen.map(|(c, roughness)| SheenLayer {
+            colour: Spectrum::rgb_reflectance(Vec3::from(c)),
+            roughness,
+        }),
     };
     Material::Pbr(m)
 }
 
 /// The layered materials every BSDF test takes.
 fn layered_cases() -> Vec<(&'static str, Material)> {
+    let tinted = Some((0.5, [1.0, 0.6, 0.3]));
     vec![
         (
             "specular ½ tinted",
-            layered(0.8, 0.0, 0.4, Some((0.5, [1.0, 0.6, 0.3])), None, None),
+            layered(0.8, 0.0, 0.4, tinted, None, None, None),
         ),
         (
             "clear coat over rough plastic",
-            layered(0.7, 0.0, 0.7, None, Some((1.0, 0.35)), None),
+            layered(0.7, 0.0, 0.7, None, Some((1.0, 0.35)), None, None),
         ),
         (
             "clear coat over metal",
-            layered(0.9, 1.0, 0.5, None, Some((0.6, 0.3)), None),
+            layered(0.9, 1.0, 0.5, None, Some((0.6, 0.3)), None, None),
         ),
         (
             "thin film on plastic",
-            layered(0.5, 0.0, 0.3, None, None, Some((1.0, 450.0))),
+            layered(0.5, 0.0, 0.3, None, None, Some((1.0, 450.0)), None),
         ),
         (
             "thin film on metal",
-            layered(0.8, 1.0, 0.3, None, None, Some((0.8, 300.0))),
+            layered(0.8, 1.0, 0.3, None, None, Some((0.8, 300.0)), None),
         ),
         (
-            "all three",
+            "sheen on cloth",
+            layered(
+                0.6,
+                0.0,
+                0.9,
+                None,
+                None,
+                None,
+                Some(([1.0, 0.9, 0.8], 0.5)),
+            ),
+        ),
+        (
+            "smooth sheen on metal",
+            layered(
+                0.7,
+                1.0,
+                0.4,
+                None,
+                None,
+                None,
+                Some(([0.5, 0.5, 1.0], 0.2)),
+            ),
+        ),
+        (
+            "all four",
             layered(
                 0.6,
                 0.3,
@@ -315,6 +345,7 @@ fn layered_cases() -> Vec<(&'static str, Material)> {
                 Some((0.8, [0.9, 1.0, 1.2])),
                 Some((0.5, 0.35)),
                 Some((0.7, 380.0)),
+                Some(([0.8, 0.8, 0.8], 0.6)),
             ),
         ),
     ]

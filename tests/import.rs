@@ -207,7 +207,8 @@ fn gltf_materials_map_to_spectral_materials() {
           {{"name":"gold","pbrMetallicRoughness":{{"baseColorFactor":[1,0.8,0.3,1],"metallicFactor":1,"roughnessFactor":0.25}},
             "extensions":{{"KHR_materials_clearcoat":{{"clearcoatFactor":0.8,"clearcoatRoughnessFactor":0.1,"clearcoatTexture":{{"index":0}}}},
               "KHR_materials_iridescence":{{"iridescenceFactor":1,"iridescenceIor":1.4,"iridescenceThicknessMaximum":420}},
-              "KHR_materials_specular":{{"specularFactor":0.5,"specularColorFactor":[1,0.5,0.25]}}}}}},
+              "KHR_materials_specular":{{"specularFactor":0.5,"specularColorFactor":[1,0.5,0.25]}},
+              "KHR_materials_sheen":{{"sheenColorFactor":[0.5,0.5,0.5],"sheenRoughnessFactor":0.3}}}}}},
           {{"name":"glass","pbrMetallicRoughness":{{"metallicFactor":0,"roughnessFactor":0}},
             "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}},"KHR_materials_ior":{{"ior":1.6}},"KHR_materials_dispersion":{{"dispersion":0.5}}}}}},
           {{"name":"lamp","emissiveFactor":[1,0.5,0.25],"doubleSided":true,
@@ -236,6 +237,8 @@ fn gltf_materials_map_to_spectral_materials() {
                 s.colour.eval(450.0) < s.colour.eval(650.0),
                 "reddish specular colour"
             );
+            let sh = l.sheen.as_ref().expect("sheen mapped");
+            assert_eq!(sh.roughness, 0.3);
         }
         other => panic!("gold: {other:?}"),
     }

@@ -253,8 +253,8 @@ def write_glb():
 def write_layers_glb():
     """Spheres with the glTF extension layers prism maps: thin films
     (KHR_materials_iridescence: an oil film on a dark base, an anodised metal),
-    a clear coat over red plastic and a tinted specular (KHR_materials_clearcoat,
-    KHR_materials_specular), on a grey floor under a panel light."""
+    a clear coat over red plastic, a tinted specular and velvet (KHR_materials_clearcoat,
+    KHR_materials_specular, KHR_materials_sheen), on a grey floor under a panel light."""
     g = Glb()
     ball = sphere(32, 64)
     meshes = [g.mesh("floor", quad(10.0), 0), g.mesh("panel", quad(1.0), 1)]
@@ -276,13 +276,15 @@ def write_layers_glb():
          {"KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.05}}),
         ("tinted specular", {"baseColorFactor": [0.05, 0.1, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.3},
          {"KHR_materials_specular": {"specularFactor": 1, "specularColorFactor": [1.0, 0.8, 0.3]}}),
+        ("velvet", {"baseColorFactor": [0.25, 0.02, 0.08, 1], "metallicFactor": 0, "roughnessFactor": 0.9},
+         {"KHR_materials_sheen": {"sheenColorFactor": [1.0, 0.55, 0.7], "sheenRoughnessFactor": 0.4}}),
     ]
     nodes = [{"name": "floor", "mesh": 0},
              {"name": "light", "mesh": 1, "translation": [0, 4, 1], "rotation": [1, 0, 0, 0], "scale": [4, 1, 2]}]
     for i, (name, pbr, ext) in enumerate(balls):
         materials.append({"name": name, "pbrMetallicRoughness": pbr, "extensions": ext})
         meshes.append(g.mesh(name, ball, len(materials) - 1))
-        nodes.append({"name": name, "mesh": len(meshes) - 1, "translation": [-2.1 + 1.4 * i, 0.6, 0], "scale": [0.6, 0.6, 0.6]})
+        nodes.append({"name": name, "mesh": len(meshes) - 1, "translation": [-2.4 + 1.2 * i, 0.5, 0], "scale": [0.5, 0.5, 0.5]})
     nodes.append({
         "name": "camera", "camera": 0, "translation": [0, 1.5, 5.5],
         "rotation": [-math.sin(math.radians(6)), 0, 0, math.cos(math.radians(6))],
@@ -290,7 +292,7 @@ def write_layers_glb():
     doc = {
         "asset": {"version": "2.0", "generator": "prism tools/gen_assets.py"},
         "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_iridescence",
-                           "KHR_materials_clearcoat", "KHR_materials_specular"],
+                           "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen"],
         "scene": 0,
         "scenes": [{"nodes": list(range(len(nodes)))}],
         "nodes": nodes,

@@ -13,6 +13,7 @@ pub mod ior;
 pub mod metals;
 pub mod microfacet;
 pub mod pbr;
+pub mod sheen;
 pub mod thin_film;
 
 use glam::{Vec2, Vec3, Vec4};
@@ -82,6 +83,16 @@ pub struct PbrLayers {
     pub clearcoat: Option<ClearcoatLayer>,
     /// KHR_materials_iridescence.
     pub iridescence: Option<IridescenceLayer>,
+    /// KHR_materials_sheen.
+    pub sheen: Option<SheenLayer>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SheenLayer {
+    /// sheenColorFactor.
+    pub colour: Spectrum,
+    /// sheenRoughnessFactor (the Charlie distribution's r is its square).
+    pub roughness: f32,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -354,6 +365,9 @@ fn lobe_layers(layers: &PbrLayers, uv: Vec2, wl: &SampledWavelengths) -> pbr::Lo
     if let Some(s) = &layers.specular {
         at.specular_weight = s.weight;
         at.specular_colour = s.colour.sample(wl);
+    }
+    if let Some(s) = &layers.sheen {
+        at.sheen = Some((s.colour.sample(wl), s.roughness * s.roughness));
     }
     if let Some(c) = &layers.clearcoat {
         at.clearcoat = Some((c.weight, microfacet::alpha_from_roughness(c.roughness)));

@@ -26,6 +26,10 @@
 //!   their Fresnel factors blend towards the film's Airy reflectance,
 //!   evaluated exactly per wavelength (`thin_film`), the metal's base index
 //!   taken from its colour;
+//! - KHR_materials_sheen: the Charlie sheen lobe (`sheen`) over the base,
+//!   which keeps 1 − max(colour)·E of the light, E the sheen's tabulated
+//!   directional albedo (the smaller of the two directions' shares, so the
+//!   sum is reciprocal and never above 1);
 //! - KHR_materials_clearcoat: a GGX coat of index 1.5 over everything,
 //!   f = (1 − c·F_cc)·f_base + c·F_cc·S_cc with F_cc Schlick's (F0 = 0.04) at
 //!   the half vector, as the extension defines it; sampled in proportion to
@@ -38,7 +42,7 @@ use glam::Vec3;
 use super::bsdf::{to_side_of, upper, BsdfEval, BsdfFlags, LobeSample, TransportMode};
 use super::cosine_hemisphere;
 use super::microfacet::{reflect, Ggx};
-use super::thin_film;
+use super::{sheen, thin_film};
 use crate::spectrum::SampledSpectrum;
 
 /// Smallest α used: below it the specular lobe would be a Dirac delta and a
@@ -70,6 +74,8 @@ pub struct LobeLayers {
     pub film: Option<FilmAt>,
     /// Clear coat: weight and GGX α.
     pub clearcoat: Option<(f32, f32)>,
+    /// Sheen: colour per wavelength and roughness.
+    pub sheen: Option<(SampledSpectrum, f32)>,
 }
 
 impl Default for LobeLayers {
@@ -79,6 +85,7 @@ impl Default for LobeLayers {
             specular_colour: SampledSpectrum::ONE,
             film: None,
             clearcoat: None,
+            sheen: None,
         }
     }
 }
@@ -145,6 +152,10 @@ impl PbrLobe {
                 .filter(|c| c.0 > 0.0)
                 .map(|(w, a)| (w.min(1.0), a.max(MIN_ALPHA))),
             film: layers.film.filter(|f| f.weight > 0.0),
+            sheen: layers
+                .sheen
+                .map(|(c, r)| (c.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE), r))
+                .filter(|(c, _)| c.max_element() > 0.0),
             ..layers
         };
         self
@@ -195,6 +206,20 @@ impl PbrLobe {
         let (weight, alpha) = self.layers.clearcoat?;
         let f = CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(cos);
         Some((weight * f, Ggx::new(alpha)))
+    }
+
+    /// What the base keeps under the sheen seen from `cos` (1 − max(colour)
+    /// · E(μ)), and the sheen's probability of being sampled.
+    fn under_sheen(&self, cos: f32) -> f32 {
+        self.layers
+            .sheen
+            .map_or(1.0, |(c, r)| 1.0 - c.max_element() * sheen::albedo(cos, r))
+    }
+
+    fn p_sheen(&self, wo: Vec3) -> f32 {
+        self.layers.sheen.map_or(0.0, |_| {
+            (1.0 - self.under_sheen(wo.z.abs())).clamp(0.05, 0.5)
+        })
     }
 
     /// Probability of sampling the clear coat from `wo` (0 without one).
@@ -251,6 +276,14 @@ impl PbrLobe {
         let mut f = dielectric * (1.0 - self.metallic) + f_c * (self.metallic * s);
         let mut pdf =
             p_specular * self.ggx.reflection_pdf(wo, wm) + (1.0 - p_specular) * wi.z * FRAC_1_PI;
+        if let Some((colour, r)) = self.layers.sheen {
+            // The base keeps what the sheen leaves from either side (the
+            // smaller share: reciprocal, and never more than arrives).
+            let keep = self.under_sheen(wo.z).min(self.under_sheen(wi.z));
+            f = f * keep + colour * sheen::value(wo, wi, r);
+            let p = self.p_sheen(wo);
+            pdf = p * wi.z * FRAC_1_PI + (1.0 - p) * pdf;
+        }
         if let Some((c, coat)) = self.clearcoat(cos_h) {
             f = f * (1.0 - c) + SampledSpectrum::splat(c * coat.reflection(wo, wi, wm));
             let p = self.p_clearcoat(wo);
@@ -283,9 +316,12 @@ impl PbrLobe {
                 1.0,
             ));
         }
-        // The rest of `uc` picks the base's lobe.
+        // The rest of `uc` picks the sheen (cosine-sampled) or the base's lobe.
         let uc = (uc - p_coat) / (1.0 - p_coat);
-        let (wi, lobe) = if uc < self.p_specular(up) {
+        let p_sheen = self.p_sheen(up);
+        let (wi, lobe) = if uc < p_sheen {
+            (cosine_hemisphere(u), BsdfFlags::GLOSSY)
+        } else if (uc - p_sheen) / (1.0 - p_sheen) < self.p_specular(up) {
             (reflect(up, self.ggx.sample_wm(up, u)), BsdfFlags::GLOSSY)
         } else {
             (cosine_hemisphere(u), BsdfFlags::DIFFUSE)

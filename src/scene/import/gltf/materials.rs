@@ -8,7 +8,7 @@ use super::buffers::{percent_decode, read_uri};
 use super::Context;
 use crate::material::{
     ClearcoatLayer, Cutout, CutoutMode, Ior, IridescenceLayer, Material, NormalMap, OpaqueTexels,
-    PbrLayers, PbrMaterial, Reflectance, SpecularLayer,
+    PbrLayers, PbrMaterial, Reflectance, SheenLayer, SpecularLayer,
 };
 use crate::medium::Medium;
 use crate::scene::import::AssetMaterial;
@@ -151,6 +151,21 @@ impl Context<'_> {
             layers.clearcoat = (weight > 0.0).then(|| ClearcoatLayer {
                 weight,
                 roughness: number(v, "clearcoatRoughnessFactor", 0.0).clamp(0.0, 1.0),
+            });
+        }
+        if let Some(v) = m.extension_value("KHR_materials_sheen") {
+            textures_ignored(v, &["sheenColorTexture", "sheenRoughnessTexture"]);
+            let colour = v
+                .get("sheenColorFactor")
+                .and_then(|c| c.as_array())
+                .filter(|c| c.len() == 3)
+                .map(|c| Vec3::from_array([0, 1, 2].map(|i| c[i].as_f64().unwrap_or(0.0) as f32)))
+                .filter(|c| c.is_finite())
+                .unwrap_or(Vec3::ZERO)
+                .clamp(Vec3::ZERO, Vec3::ONE);
+            layers.sheen = (colour.max_element() > 0.0).then(|| SheenLayer {
+                colour: Spectrum::rgb_reflectance(colour),
+                roughness: number(v, "sheenRoughnessFactor", 0.0).clamp(0.0, 1.0),
             });
         }
         if let Some(v) = m.extension_value("KHR_materials_iridescence") {

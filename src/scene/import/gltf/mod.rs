@@ -21,9 +21,10 @@
 //! - KHR_texture_transform on every texture; samplers' wrap modes, and
 //!   nearest magnification.
 //!
-//! - KHR_materials_specular, KHR_materials_clearcoat and
-//!   KHR_materials_iridescence (thin-film interference, exact per
-//!   wavelength) → layers of that BRDF (`material::pbr`), by their factors;
+//! - KHR_materials_specular, KHR_materials_clearcoat,
+//!   KHR_materials_sheen and KHR_materials_iridescence (thin-film
+//!   interference, exact per wavelength) → layers of that BRDF
+//!   (`material::pbr`), by their factors;
 //! - alphaMode MASK and BLEND → cut-outs (`material::cutout`): alpha from
 //!   baseColorFactor × baseColorTexture, tested against alphaCutoff or
 //!   kept with probability alpha.
@@ -52,7 +53,8 @@ use buffers::load_buffers;
 use validate::validate;
 
 /// Extensions that are mapped (see the module notes).
-const MAPPED_EXTENSIONS: [&str; 9] = [
+const MAPPED_EXTENSIONS: [&str; 10] = [
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
     "KHR_materials_iridescence",
