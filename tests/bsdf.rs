@@ -271,18 +271,26 @@ fn layered(
     m.layers = PbrLayers {
         specular: specular.map(|(weight, c)| SpecularLayer {
             weight,
-            colour: Spectrum::rgb_unbounded(Vec3::from(c)),
+            texture: None,
+            colour: Spectrum::rgb_unbounded(Vec3::from(c)).into(),
         }),
-        clearcoat: clearcoat.map(|(weight, roughness)| ClearcoatLayer { weight, roughness }),
+        clearcoat: clearcoat.map(|(weight, roughness)| ClearcoatLayer {
+            weight,
+            texture: None,
+            roughness,
+            roughness_texture: None,
+        }),
         iridescence: film.map(|(weight, t)| IridescenceLayer {
             weight,
+            texture: None,
             ior: 1.3,
             thickness: [100.0, t],
             thickness_texture: None,
         }),
         sheen: sheen.map(|(c, roughness)| SheenLayer {
-            colour: Spectrum::rgb_reflectance(Vec3::from(c)),
+            colour: Spectrum::rgb_reflectance(Vec3::from(c)).into(),
             roughness,
+            roughness_texture: None,
         }),
     };
     Material::Pbr(m)

@@ -227,14 +227,23 @@ fn gltf_materials_map_to_spectral_materials() {
         Material::Pbr(m) => {
             assert_eq!((m.metallic, m.roughness, m.ior), (1.0, 0.25, 1.5));
             let l = &m.layers;
-            let c = l.clearcoat.expect("clear coat mapped");
+            let c = l.clearcoat.as_ref().expect("clear coat mapped");
             assert_eq!((c.weight, c.roughness), (0.8, 0.1));
+            // The file has no texture 0: said, and the factor alone used.
+            assert!(c.texture.is_none());
+            assert!(
+                s.warnings
+                    .iter()
+                    .any(|w| w.contains("clearcoatTexture names texture 0")),
+                "{:?}",
+                s.warnings
+            );
             let i = l.iridescence.as_ref().expect("iridescence mapped");
             assert_eq!((i.weight, i.ior, i.thickness), (1.0, 1.4, [100.0, 420.0]));
             let s = l.specular.as_ref().expect("specular mapped");
             assert_eq!(s.weight, 0.5);
             assert!(
-                s.colour.eval(450.0) < s.colour.eval(650.0),
+                s.colour.factor.eval(450.0) < s.colour.factor.eval(650.0),
                 "reddish specular colour"
             );
             let sh = l.sheen.as_ref().expect("sheen mapped");
@@ -292,7 +301,7 @@ fn gltf_materials_map_to_spectral_materials() {
         .collect();
     assert_eq!(ignored.len(), 1, "{:?}", s.warnings);
     assert!(
-        ignored[0].contains("KHR_materials_anisotropy") && ignored[0].contains("clearcoatTexture"),
+        ignored[0].contains("KHR_materials_anisotropy") && !ignored[0].contains("clearcoatTexture"),
         "{}",
         ignored[0]
     );
@@ -1204,4 +1213,55 @@ fn stochastic_transparency_passes_the_expected_share_of_light() {
         "{mean} ± {sigma}, expected 0.7"
     );
     assert!(sigma < 0.01, "{sigma}");
+}
+
+#[test]
+fn gltf_extension_textures_vary_the_layers_over_the_surface() {
+    // A thin film whose thickness texture is 0 on the left (100 nm) and 1
+    // on the right (600 nm): the reflected colour differs between halves.
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = GltfBuilder::default();
+    let prim = assets::quad(&mut b, true);
+    let texels: Vec<u8> = [[0u8, 0, 0, 255], [0, 255, 0, 255]].concat().repeat(2);
+    let view = b.image_view(&assets::png(2, 2, &texels));
+    let json = b.json(&format!(
+        r#""extensionsUsed":["KHR_materials_iridescence"],
+        "scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{prim},"material":0}}]}}],
+        "samplers":[{{"magFilter":9728}}],
+        "images":[{{"bufferView":{view},"mimeType":"image/png"}}],
+        "textures":[{{"source":0,"sampler":0}}],
+        "materials":[
+          {{"pbrMetallicRoughness":{{"baseColorFactor":[0.02,0.02,0.02,1],"metallicFactor":0,"roughnessFactor":0.3}},
+            "extensions":{{"KHR_materials_iridescence":{{"iridescenceFactor":1,"iridescenceIor":1.4,
+              "iridescenceThicknessMinimum":100,"iridescenceThicknessMaximum":600,"iridescenceThicknessTexture":{{"index":0}}}}}}}}
+        ]"#
+    ));
+    let f = assets::write_glb(dir.path(), "film", &json, &b.bin);
+    let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
+    let reflected = |x: f32| {
+        let h = hit(&s, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
+        let geom = ShadingGeometry {
+            ng: h.ng,
+            ns: h.ns,
+            wo: Vec3::new(0.3, 0.0, 1.0).normalize(),
+        };
+        let b = s.materials[h.material as usize].bsdf(
+            &geom,
+            h.uv,
+            &mut wavelengths(),
+            Vec4::splat(1.0),
+        );
+        b.f(
+            geom.wo,
+            Vec3::new(-0.3, 0.0, 1.0).normalize(),
+            prism::material::TransportMode::Radiance,
+        )
+    };
+    let (thin, thick) = (reflected(-0.5), reflected(0.5));
+    let hue = |f: Vec4| f / f.element_sum();
+    assert!(
+        (hue(thin) - hue(thick)).abs().max_element() > 0.02,
+        "{thin} vs {thick}"
+    );
 }

@@ -257,6 +257,14 @@ def write_layers_glb():
     KHR_materials_specular, KHR_materials_sheen), on a grey floor under a panel light."""
     g = Glb()
     ball = sphere(32, 64)
+
+    def swirl(x, y):
+        # Film thickness in green: bands that wander like oil on water.
+        u, v = x / 128.0, y / 128.0
+        t = 0.5 + 0.5 * math.sin(9 * u + 4 * math.sin(7 * v) + 3 * math.sin(5 * u * v))
+        return (0, int(255 * t), 0)
+
+    film_png = g.view(png(128, 128, swirl))
     meshes = [g.mesh("floor", quad(10.0), 0), g.mesh("panel", quad(1.0), 1)]
     materials = [
         {"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 0.8}},
@@ -269,7 +277,8 @@ def write_layers_glb():
     ]
     balls = [
         ("oil film", {"baseColorFactor": [0.02, 0.02, 0.025, 1], "metallicFactor": 0, "roughnessFactor": 0.05},
-         {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": 1.45, "iridescenceThicknessMaximum": 380}}),
+         {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": 1.45, "iridescenceThicknessMinimum": 200,
+                                        "iridescenceThicknessMaximum": 650, "iridescenceThicknessTexture": {"index": 0}}}),
         ("anodised titanium", {"baseColorFactor": [0.55, 0.52, 0.5, 1], "metallicFactor": 1, "roughnessFactor": 0.2},
          {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": 2.0, "iridescenceThicknessMaximum": 260}}),
         ("clear-coated red", {"baseColorFactor": [0.6, 0.04, 0.03, 1], "metallicFactor": 0, "roughnessFactor": 0.6},
@@ -299,6 +308,9 @@ def write_layers_glb():
         "cameras": [{"name": "view", "type": "perspective", "perspective": {"yfov": 0.55, "znear": 0.1}}],
         "meshes": meshes,
         "materials": materials,
+        "images": [{"bufferView": film_png, "mimeType": "image/png"}],
+        "samplers": [{"wrapS": 10497, "wrapT": 10497}],
+        "textures": [{"source": 0, "sampler": 0}],
     }
     g.write(OUT / "layers.glb", doc)
 

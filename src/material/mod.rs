@@ -89,29 +89,38 @@ pub struct PbrLayers {
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct SheenLayer {
-    /// sheenColorFactor.
-    pub colour: Spectrum,
-    /// sheenRoughnessFactor (the Charlie distribution's r is its square).
+    /// sheenColorFactor (× sheenColorTexture).
+    pub colour: Reflectance,
+    /// sheenRoughnessFactor (× sheenRoughnessTexture's alpha; the Charlie
+    /// distribution's r is its square).
     pub roughness: f32,
+    pub roughness_texture: Option<TextureRef>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpecularLayer {
-    /// specularFactor: the coat's weight and F90.
+    /// specularFactor: the coat's weight and F90 (× specularTexture's alpha).
     pub weight: f32,
-    /// specularColorFactor: tints the coat's F0.
-    pub colour: Spectrum,
+    pub texture: Option<TextureRef>,
+    /// specularColorFactor: tints the coat's F0 (× specularColorTexture).
+    pub colour: Reflectance,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ClearcoatLayer {
+    /// clearcoatFactor (× clearcoatTexture's red).
     pub weight: f32,
+    pub texture: Option<TextureRef>,
+    /// clearcoatRoughnessFactor (× clearcoatRoughnessTexture's green).
     pub roughness: f32,
+    pub roughness_texture: Option<TextureRef>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct IridescenceLayer {
+    /// iridescenceFactor (× iridescenceTexture's red).
     pub weight: f32,
+    pub texture: Option<TextureRef>,
     /// The film's index (iridescenceIor).
     pub ior: f32,
     /// Thickness in nm: minimum and maximum (the texture's green channel
@@ -361,21 +370,28 @@ fn pbr_bsdf(m: &PbrMaterial, geom: &ShadingGeometry, uv: Vec2, wl: &SampledWavel
 
 /// The extension layers at `uv` for the path's wavelengths.
 fn lobe_layers(layers: &PbrLayers, uv: Vec2, wl: &SampledWavelengths) -> pbr::LobeLayers {
+    // A texture's channel at `uv`, 1 without the texture.
+    let channel = |t: &Option<TextureRef>, k: usize| t.as_ref().map_or(1.0, |t| t.linear(uv)[k]);
     let mut at = pbr::LobeLayers::default();
     if let Some(s) = &layers.specular {
-        at.specular_weight = s.weight;
-        at.specular_colour = s.colour.sample(wl);
+        at.specular_weight = s.weight * channel(&s.texture, 3);
+        at.specular_colour = s.colour.sample(uv, wl);
     }
     if let Some(s) = &layers.sheen {
-        at.sheen = Some((s.colour.sample(wl), s.roughness * s.roughness));
+        let r = s.roughness * channel(&s.roughness_texture, 3);
+        at.sheen = Some((s.colour.sample(uv, wl), r * r));
     }
     if let Some(c) = &layers.clearcoat {
-        at.clearcoat = Some((c.weight, microfacet::alpha_from_roughness(c.roughness)));
+        let roughness = c.roughness * channel(&c.roughness_texture, 1);
+        at.clearcoat = Some((
+            c.weight * channel(&c.texture, 0),
+            microfacet::alpha_from_roughness(roughness),
+        ));
     }
     if let Some(i) = &layers.iridescence {
-        let t = i.thickness_texture.as_ref().map_or(1.0, |t| t.linear(uv).y);
+        let t = channel(&i.thickness_texture, 1);
         at.film = Some(pbr::FilmAt {
-            weight: i.weight,
+            weight: i.weight * channel(&i.texture, 0),
             ior: i.ior,
             thickness: i.thickness[0] + (i.thickness[1] - i.thickness[0]) * t,
             lambda: wl.lambda,

@@ -105,8 +105,28 @@ impl Context<'_> {
         Some(Box::new(Medium::absorbing(colour, distance)))
     }
 
-    /// KHR_materials_specular, _clearcoat and _iridescence, by their
-    /// factors (their textures are named as ignored).
+    /// A texture an extension names (`{ "index": i, "texCoord": n }` under
+    /// `key`).
+    fn extension_texture(
+        &mut self,
+        v: &gltf::json::Value,
+        key: &str,
+        encoding: Encoding,
+    ) -> Option<TextureRef> {
+        let info = v.get(key)?;
+        let index = info.get("index")?.as_u64()? as usize;
+        let tex_coord = info.get("texCoord").and_then(|t| t.as_u64()).unwrap_or(0) as u32;
+        let Some(texture) = self.document.textures().nth(index) else {
+            self.warnings.push(format!(
+                "{key} names texture {index}, which the file does not have"
+            ));
+            return None;
+        };
+        self.texture(texture, tex_coord, None, encoding, key)
+    }
+
+    /// KHR_materials_specular, _clearcoat, _sheen and _iridescence: their
+    /// factors times their textures.
     fn layers(&mut self, m: &gltf::Material) -> PbrLayers {
         let number = |v: &gltf::json::Value, key: &str, default: f32| {
             v.get(key)
@@ -115,72 +135,92 @@ impl Context<'_> {
                 .filter(|x| x.is_finite())
                 .unwrap_or(default)
         };
-        let mut textures_ignored = |v: &gltf::json::Value, keys: &[&str]| {
-            for key in keys {
-                if v.get(key).is_some() {
-                    self.ignored.insert(format!("{key} (the factor is used)"));
-                }
-            }
+        let colour = |v: &gltf::json::Value, key: &str, default: f32| {
+            v.get(key)
+                .and_then(|c| c.as_array())
+                .filter(|c| c.len() == 3)
+                .map(|c| {
+                    Vec3::from_array(
+                        [0, 1, 2].map(|i| c[i].as_f64().unwrap_or(default as f64) as f32),
+                    )
+                })
+                .filter(|c| c.is_finite())
+                .unwrap_or(Vec3::splat(default))
+                .max(Vec3::ZERO)
         };
         let mut layers = PbrLayers::default();
         if let Some(v) = m.extension_value("KHR_materials_specular") {
-            textures_ignored(v, &["specularTexture", "specularColorTexture"]);
-            let colour = v
-                .get("specularColorFactor")
-                .and_then(|c| c.as_array())
-                .filter(|c| c.len() == 3)
-                .map(|c| Vec3::from_array([0, 1, 2].map(|i| c[i].as_f64().unwrap_or(1.0) as f32)))
-                .filter(|c| c.is_finite())
-                .unwrap_or(Vec3::ONE)
-                .max(Vec3::ZERO);
             layers.specular = Some(SpecularLayer {
                 weight: number(v, "specularFactor", 1.0).clamp(0.0, 1.0),
-                colour: Spectrum::rgb_unbounded(colour),
+                texture: self.extension_texture(v, "specularTexture", Encoding::Linear),
+                colour: Reflectance {
+                    factor: Spectrum::rgb_unbounded(colour(v, "specularColorFactor", 1.0)),
+                    texture: self.extension_texture(
+                        v,
+                        "specularColorTexture",
+                        Encoding::SrgbColour,
+                    ),
+                },
             });
         }
         if let Some(v) = m.extension_value("KHR_materials_clearcoat") {
-            textures_ignored(
-                v,
-                &[
-                    "clearcoatTexture",
-                    "clearcoatRoughnessTexture",
-                    "clearcoatNormalTexture",
-                ],
-            );
+            if v.get("clearcoatNormalTexture").is_some() {
+                self.ignored
+                    .insert("clearcoatNormalTexture (the coat takes the base's normal)".into());
+            }
             let weight = number(v, "clearcoatFactor", 0.0).clamp(0.0, 1.0);
-            layers.clearcoat = (weight > 0.0).then(|| ClearcoatLayer {
-                weight,
-                roughness: number(v, "clearcoatRoughnessFactor", 0.0).clamp(0.0, 1.0),
-            });
+            if weight > 0.0 {
+                layers.clearcoat = Some(ClearcoatLayer {
+                    weight,
+                    texture: self.extension_texture(v, "clearcoatTexture", Encoding::Linear),
+                    roughness: number(v, "clearcoatRoughnessFactor", 0.0).clamp(0.0, 1.0),
+                    roughness_texture: self.extension_texture(
+                        v,
+                        "clearcoatRoughnessTexture",
+                        Encoding::Linear,
+                    ),
+                });
+            }
         }
         if let Some(v) = m.extension_value("KHR_materials_sheen") {
-            textures_ignored(v, &["sheenColorTexture", "sheenRoughnessTexture"]);
-            let colour = v
-                .get("sheenColorFactor")
-                .and_then(|c| c.as_array())
-                .filter(|c| c.len() == 3)
-                .map(|c| Vec3::from_array([0, 1, 2].map(|i| c[i].as_f64().unwrap_or(0.0) as f32)))
-                .filter(|c| c.is_finite())
-                .unwrap_or(Vec3::ZERO)
-                .clamp(Vec3::ZERO, Vec3::ONE);
-            layers.sheen = (colour.max_element() > 0.0).then(|| SheenLayer {
-                colour: Spectrum::rgb_reflectance(colour),
-                roughness: number(v, "sheenRoughnessFactor", 0.0).clamp(0.0, 1.0),
-            });
+            let c = colour(v, "sheenColorFactor", 0.0).min(Vec3::ONE);
+            if c.max_element() > 0.0 {
+                layers.sheen = Some(SheenLayer {
+                    colour: Reflectance {
+                        factor: Spectrum::rgb_reflectance(c),
+                        texture: self.extension_texture(
+                            v,
+                            "sheenColorTexture",
+                            Encoding::SrgbColour,
+                        ),
+                    },
+                    roughness: number(v, "sheenRoughnessFactor", 0.0).clamp(0.0, 1.0),
+                    roughness_texture: self.extension_texture(
+                        v,
+                        "sheenRoughnessTexture",
+                        Encoding::Linear,
+                    ),
+                });
+            }
         }
         if let Some(v) = m.extension_value("KHR_materials_iridescence") {
-            textures_ignored(v, &["iridescenceTexture", "iridescenceThicknessTexture"]);
             let weight = number(v, "iridescenceFactor", 0.0).clamp(0.0, 1.0);
-            let thickness = number(v, "iridescenceThicknessMaximum", 400.0).clamp(0.0, 1e5);
-            layers.iridescence = (weight > 0.0).then(|| IridescenceLayer {
-                weight,
-                ior: number(v, "iridescenceIor", 1.3).clamp(1.0, 5.0),
-                thickness: [
-                    number(v, "iridescenceThicknessMinimum", 100.0).clamp(0.0, 1e5),
-                    thickness,
-                ],
-                thickness_texture: None,
-            });
+            if weight > 0.0 {
+                layers.iridescence = Some(IridescenceLayer {
+                    weight,
+                    texture: self.extension_texture(v, "iridescenceTexture", Encoding::Linear),
+                    ior: number(v, "iridescenceIor", 1.3).clamp(1.0, 5.0),
+                    thickness: [
+                        number(v, "iridescenceThicknessMinimum", 100.0).clamp(0.0, 1e5),
+                        number(v, "iridescenceThicknessMaximum", 400.0).clamp(0.0, 1e5),
+                    ],
+                    thickness_texture: self.extension_texture(
+                        v,
+                        "iridescenceThicknessTexture",
+                        Encoding::Linear,
+                    ),
+                });
+            }
         }
         layers
     }

@@ -24,7 +24,8 @@
 //! - KHR_materials_specular, KHR_materials_clearcoat,
 //!   KHR_materials_sheen and KHR_materials_iridescence (thin-film
 //!   interference, exact per wavelength) → layers of that BRDF
-//!   (`material::pbr`), by their factors;
+//!   (`material::pbr`), factors times textures (the clear coat's normal
+//!   map excepted);
 //! - alphaMode MASK and BLEND → cut-outs (`material::cutout`): alpha from
 //!   baseColorFactor × baseColorTexture, tested against alphaCutoff or
 //!   kept with probability alpha.
@@ -87,6 +88,7 @@ pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
 
     let mut ctx = Context {
         file: path.display().to_string(),
+        document: &gltf.document,
         base,
         buffers: &buffers,
         textures,
@@ -149,6 +151,7 @@ pub(super) fn describe(e: gltf::Error) -> String {
 /// what it ignored or warned about so far.
 struct Context<'a> {
     file: String,
+    document: &'a gltf::Document,
     base: &'a Path,
     buffers: &'a [Vec<u8>],
     textures: &'a mut TextureCache,
