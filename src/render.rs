@@ -318,7 +318,11 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             threads.spawn(|| log_progress(&done, total, start, options.log_every, &finished));
         }
         while first < samples.end {
-            let range = first..(first + pass_size(passes, cap)).min(samples.end);
+            // Saturating: ranges may end at u32::MAX (split renders of any size).
+            let range = first
+                ..first
+                    .saturating_add(pass_size(passes, cap))
+                    .min(samples.end);
             let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
             rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
             overflows.fetch_add(prepare_counters.stack_overflows, Ordering::Relaxed);

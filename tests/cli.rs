@@ -215,3 +215,37 @@ fn resource_failures_and_command_line_values_are_errors_not_panics() {
     let err = failing(&["merge", "part.spectral.exr", "-o", "merged"], dir.path());
     assert!(err.contains("no `R` channel"), "{err}");
 }
+
+#[test]
+fn an_output_folder_gets_files_named_like_the_scene_and_long_names_are_refused_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // `-o DIR/` and `-o .` (from inside the folder).
+    succeed(
+        prism()
+            .args(["render", "-q", "-o"])
+            .arg(format!("{}/", out.display()))
+            .arg(&scene),
+    );
+    succeed(
+        prism()
+            .args(["render", "-q", "-o", "."])
+            .arg(&scene)
+            .current_dir(&out),
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["s.exr", "s.png", "s.spectral.exr"]);
+    // A name that cannot hold its suffixes fails before rendering, and
+    // writes nothing.
+    let long = "x".repeat(240);
+    let err = failing(&["render", "-q", "-o", &long, "../s.toml"], &out);
+    assert!(err.contains("too long"), "{err}");
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 3);
+}

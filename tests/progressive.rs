@@ -333,3 +333,23 @@ fn adaptive_sampling_is_refused_where_it_cannot_work() {
     .to_string();
     assert!(e.contains("adaptive") && e.contains("light"), "{e}");
 }
+
+#[test]
+fn sample_ranges_at_the_top_of_u32_finish() {
+    // Pass arithmetic near u32::MAX once wrapped and never ended.
+    let scene = common::scene(
+        "[camera]\nposition = [0, 0, -3]\nlook_at = [0, 0, 0]\n[film]\nresolution = [2, 2]\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n",
+    );
+    let (film, stats) = render(
+        &scene,
+        &RenderOptions {
+            samples: u32::MAX - 40..u32::MAX,
+            threads: Some(1),
+            ..RenderOptions::new(&scene)
+        },
+    )
+    .unwrap();
+    assert!(!stats.interrupted);
+    every_pixel_has(&film, 40);
+}

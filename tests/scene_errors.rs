@@ -463,3 +463,14 @@ fn spd_spectrum_files_load_and_a_doubtful_unit_is_warned_about() {
     let w = s.warnings.join("\n");
     assert!(w.contains("lamp.spd") && w.contains("read as nm"), "{w}");
 }
+
+#[test]
+fn a_spectral_range_too_narrow_for_its_buckets_is_refused_before_rendering() {
+    let e = error(&format!(
+        "{CAMERA}[film]\nspectral_range = [500, 500.00003]\n"
+    ));
+    assert!(
+        e.contains("film.spectral_range") && e.contains("too narrow"),
+        "{e}"
+    );
+}

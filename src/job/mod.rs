@@ -6,6 +6,7 @@ mod merge;
 mod render;
 mod tev;
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -17,7 +18,17 @@ pub use render::{render_files, RenderJob, RenderOutcome};
 /// Where NAME.exr and NAME.png go: `output` (extension dropped) or next to
 /// the scene.
 pub fn output_stem(scene: &Path, output: Option<PathBuf>) -> PathBuf {
+    let named_like_scene = || PathBuf::from(scene.file_stem().unwrap_or(OsStr::new("render")));
     match output {
+        // A folder (`-o out/`, `-o .`): the files go in it, named like the scene.
+        Some(o)
+            if o.is_dir()
+                || o.as_os_str()
+                    .to_string_lossy()
+                    .ends_with(['/', std::path::MAIN_SEPARATOR]) =>
+        {
+            o.join(named_like_scene())
+        }
         Some(o) => match o.extension().and_then(|e| e.to_str()) {
             Some("exr" | "png") => o.with_extension(""),
             _ => o,
@@ -48,6 +59,17 @@ pub fn human_bytes(bytes: usize) -> String {
 
 /// Fails early, before any rendering, if the output folder cannot take files.
 pub fn check_writable(stem: &Path) -> Result<()> {
+    // The longest name written is the spectral EXR's temporary one
+    // (`.NAME.partial-PID.spectral.exr`): refuse names that file systems
+    // cannot hold before rendering, not after.
+    let name = stem.file_name().map_or(0, |n| n.len());
+    let longest = name + ".partial-4294967295.spectral.exr".len() + 1;
+    if longest > 255 {
+        bail!(
+            "output name {} is too long: with its suffixes it would exceed the 255 bytes a file name may have",
+            stem.display()
+        );
+    }
     let dir = match stem.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),

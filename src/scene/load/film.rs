@@ -162,5 +162,20 @@ pub fn check_spectral_layout(range: [f32; 2], buckets: u32) -> Result<(), String
             "spectral_buckets` must be between 1 and 4096, found {buckets}"
         ));
     }
+    // The spectral EXR names each bucket by its centre to 1e-6 nm: buckets
+    // must be told apart that way, checked now rather than after the render.
+    let layout = crate::film::SpectralLayout {
+        min: lo,
+        max: hi,
+        count: buckets,
+    };
+    let names: std::collections::HashSet<String> = (0..buckets)
+        .map(|i| crate::film::spectral_exr::channel_name(layout.centre(i) as f64))
+        .collect();
+    if names.len() < buckets as usize || !(layout.width() > 0.0) {
+        return Err(format!(
+            "spectral_range` [{lo}, {hi}] nm is too narrow for {buckets} buckets: the spectral EXR's channel names (centres to 1e-6 nm) would repeat"
+        ));
+    }
     Ok(())
 }
