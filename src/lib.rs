@@ -12,6 +12,7 @@ pub mod bench;
 pub mod camera;
 pub mod film;
 pub mod geometry;
+pub mod input;
 pub mod integrator;
 pub mod job;
 pub mod light;

@@ -474,3 +474,46 @@ fn a_spectral_range_too_narrow_for_its_buckets_is_refused_before_rendering() {
         "{e}"
     );
 }
+
+#[test]
+fn special_files_as_inputs_are_refused_not_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.obj");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("no mkfifo here: skipped");
+        return;
+    }
+    // A FIFO as a mesh, as a spectrum file and as the scene itself: each
+    // would block a read forever.
+    let scene = dir.path().join("s.toml");
+    for shape in [
+        "[[shape]]\ntype = \"obj\"\nfile = \"pipe.obj\"\n",
+        "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = { file = \"pipe.obj\" }\n",
+        "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = { file = \"/dev/zero\" }\n",
+    ] {
+        std::fs::write(&scene, format!("{CAMERA}{shape}")).unwrap();
+        let e = load(&scene).err().expect("refused").to_string();
+        assert!(e.contains("not a regular file"), "{e}");
+    }
+    let e = load(&fifo).err().expect("refused").to_string();
+    assert!(e.contains("not a regular file"), "{e}");
+}
+
+#[test]
+fn emission_beyond_f32_arithmetic_is_refused() {
+    for shape in [
+        "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1e38\n",
+        "[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1e20\nemission_scale = 1e20\n",
+        "[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\nintensity = 1e35\n",
+    ] {
+        let e = error(&format!("{CAMERA}{shape}"));
+        assert!(
+            e.contains("f32 arithmetic") && e.contains("film.exposure"),
+            "{e}"
+        );
+    }
+    // Bright but representable: fine.
+    let text = format!("{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1e12\n");
+    assert!(load_str(&text, Path::new(".")).is_ok());
+}

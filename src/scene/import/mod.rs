@@ -97,7 +97,7 @@ impl TextureCache {
             .display()
             .to_string();
         self.get(key, encoding, [Wrap::Repeat; 2], Filter::Bilinear, || {
-            std::fs::read(path).map_err(|e| format!("cannot read: {e}"))
+            crate::input::read(path)
         })
         .map_err(|e| format!("{}: {e}", path.display()))
     }

@@ -46,7 +46,7 @@ fn roughness_from_phong(ns: f32) -> f32 {
 /// Reads an OBJ file and its materials. `smooth`: use the file's vertex
 /// normals where every vertex of a piece has one.
 pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<Asset, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    let bytes = crate::input::read(path)?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     // Polygons are triangulated here, in their own plane (tobj fans them,
     // which fills concave faces). Vertices with texture coordinates or
@@ -59,15 +59,24 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
         single_index: has_attributes,
         ..Default::default()
     };
-    // tobj's material loader is a `Fn`: note the library's path in a cell.
+    // tobj's material loader is a `Fn`: note the library's path, and why
+    // it could not be read, in cells.
     let mtl_path: std::cell::RefCell<Option<PathBuf>> = Default::default();
+    let mtl_unreadable: std::cell::RefCell<Option<String>> = Default::default();
     let (models, materials) =
         tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |p| {
             let full = base.join(p);
             *mtl_path.borrow_mut() = Some(full.clone());
-            tobj::load_mtl(&full)
+            match crate::input::read(&full) {
+                Ok(text) => tobj::load_mtl_buf(&mut std::io::Cursor::new(text)),
+                Err(e) => {
+                    *mtl_unreadable.borrow_mut() = Some(e);
+                    Err(tobj::LoadError::OpenFileFailed)
+                }
+            }
         })
         .map_err(|e| format!("cannot read OBJ: {e}"))?;
+    let mtl_unreadable = mtl_unreadable.into_inner();
 
     let mtl_path = mtl_path.into_inner();
     let mut asset = Asset::default();
@@ -80,7 +89,9 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
                     p.display().to_string()
                 });
             let why = match e {
-                tobj::LoadError::OpenFileFailed => "cannot be opened".to_string(),
+                tobj::LoadError::OpenFileFailed => mtl_unreadable
+                    .clone()
+                    .unwrap_or_else(|| "cannot be opened".to_string()),
                 other => format!("cannot be read ({other})"),
             };
             asset

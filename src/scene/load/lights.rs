@@ -46,9 +46,11 @@ impl Loader {
                         "`environment.rotate` applies to a map (`file`), not to a constant `radiance`",
                     ));
                 }
-                let radiance = self
-                    .spectrum(radiance, Role::Emission, file, "environment.radiance")?
-                    .scaled(scale);
+                let radiance = self.checked_emission(
+                    self.spectrum(radiance, Role::Emission, file, "environment.radiance")?
+                        .scaled(scale),
+                    "environment.radiance",
+                )?;
                 Ok(vec![Light::Environment(UniformEnvironment::new(radiance))])
             }
             (None, Some(rel), None) => {
@@ -179,9 +181,9 @@ impl Loader {
             return Err(self.error(format!("`{key}.scale` must not be negative")));
         }
         let spectrum = |s, name: &str| -> Result<Spectrum, SceneError> {
-            Ok(self
-                .spectrum(s, Role::Emission, file, &format!("{key}.{name}"))?
-                .scaled(scale))
+            let key = format!("{key}.{name}");
+            let s = self.spectrum(s, Role::Emission, file, &key)?.scaled(scale);
+            self.checked_emission(s, &key)
         };
         let point = |name: &str, v: Option<[f32; 3]>| -> Result<Vec3, SceneError> {
             let p = Vec3::from(v.ok_or_else(|| {
@@ -288,7 +290,7 @@ fn read_radiance_image(path: &std::path::Path) -> Result<(u32, u32, Vec<Vec3>), 
     let (w, h, rgb) = if ext == "exr" {
         crate::film::output::read_rgb_exr(path).map_err(|e| format!("{e:#}"))?
     } else {
-        let bytes = std::fs::read(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+        let bytes = crate::input::read(path).map_err(|e| format!("{name}: {e}"))?;
         let image =
             image::load_from_memory(&bytes).map_err(|e| format!("{name}: cannot decode: {e}"))?;
         let linear = ext == "hdr";

@@ -55,10 +55,11 @@ impl Loader {
                             self.error(format!("`{key}.emission_scale` must not be negative"))
                         );
                     }
+                    let spectrum = self
+                        .spectrum(spec, Role::Emission, file, &format!("{key}.emission"))?
+                        .scaled(scale);
                     Some(Emission {
-                        spectrum: self
-                            .spectrum(spec, Role::Emission, file, &format!("{key}.emission"))?
-                            .scaled(scale),
+                        spectrum: self.checked_emission(spectrum, &format!("{key}.emission"))?,
                         texture: None,
                         two_sided: shape.two_sided.unwrap_or(false),
                     })

@@ -47,11 +47,8 @@ impl Loader {
             }
             SpectrumSpec::File { path, scale } => {
                 let full = self.base.join(path);
-                let text = std::fs::read_to_string(&full).map_err(|e| {
-                    self.error(format!(
-                        "`{key}`: cannot read spectrum file {}: {e}",
-                        full.display()
-                    ))
+                let text = crate::input::read_to_string(&full).map_err(|e| {
+                    self.error(format!("`{key}`: spectrum file {}: {e}", full.display()))
                 })?;
                 let t = csv::parse(&text)
                     .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
@@ -101,6 +98,26 @@ impl Loader {
     }
 
     /// A built-in illuminant, normalised to luminance Y = 1.
+    /// An emission spectrum after its scale, refused when its radiance
+    /// would overflow the renderer's f32 arithmetic (paths multiply it by
+    /// throughputs and divide it by densities): better an error than a
+    /// black image with a count of dropped samples.
+    pub(super) fn checked_emission(&self, s: Spectrum, key: &str) -> Result<Spectrum, SceneError> {
+        const MAX_RADIANCE: f32 = 1e30;
+        let peak = (LAMBDA_MIN as u32..=LAMBDA_MAX as u32)
+            .map(|l| s.eval(l as f32))
+            .fold(
+                0.0f32,
+                |a, v| if v.is_nan() { f32::INFINITY } else { a.max(v) },
+            );
+        if peak > MAX_RADIANCE {
+            return Err(self.error(format!(
+                "`{key}` reaches {peak:e}, beyond what f32 arithmetic carries through a path (limit {MAX_RADIANCE:e}): scale the emission down and raise `film.exposure`"
+            )));
+        }
+        Ok(s)
+    }
+
     pub(super) fn builtin(
         &self,
         name: &str,

@@ -16,7 +16,7 @@ pub(super) fn read_uri(uri: &str, base: &Path) -> Result<Vec<u8>, String> {
             .map_err(|e| format!("bad base64 data: {e}"));
     }
     let path = base.join(percent_decode(uri));
-    std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+    crate::input::read(&path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// URIs in glTF are percent-encoded (spaces are %20).

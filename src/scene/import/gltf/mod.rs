@@ -72,7 +72,7 @@ pub(super) const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads a glTF or GLB file.
 pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    let bytes = crate::input::read(path)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(describe)?;
     validate(gltf.as_json())?;
     let base = path.parent().unwrap_or(Path::new("."));
