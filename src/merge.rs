@@ -110,6 +110,32 @@ pub fn merge(parts: &[(PathBuf, SpectralImage)]) -> Result<SpectralImage> {
         if image.wavelengths != first.wavelengths || image.other.keys().ne(first.other.keys()) {
             return Err(mismatch("spectral layouts"));
         }
+        // The region the attributes claim must hold every sample the part
+        // has: a part with samples outside it (forged, or edited) could
+        // overlap another one unseen.
+        let counts = &image.other[SAMPLE_COUNT];
+        let [x0, y0, x1, y1] = region;
+        if x1 > image.width as u32 || y1 > image.height as u32 {
+            bail!(
+                "{}: region {region:?} lies outside the {}×{} image",
+                path.display(),
+                image.width,
+                image.height
+            );
+        }
+        for (i, &c) in counts.iter().enumerate() {
+            let (x, y) = ((i % image.width) as u32, (i / image.width) as u32);
+            let inside = (x0..x1).contains(&x) && (y0..y1).contains(&y);
+            if c != 0.0 && !inside {
+                bail!(
+                    "{}: pixel ({x}, {y}) has {c} samples outside the part's region {region:?}: the part is not what its attributes say",
+                    path.display()
+                );
+            }
+            if !(c >= 0.0 && c.is_finite()) {
+                bail!("{}: pixel ({x}, {y}) has {c} samples", path.display());
+            }
+        }
         described.push(Part {
             path,
             image,

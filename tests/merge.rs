@@ -302,3 +302,33 @@ fn a_merge_that_leaves_pixels_uncovered_says_so() {
     assert!(err.contains("480 of 960 pixels are in no part"), "{err}");
     assert!(err.contains("merged 1 part ("), "{err}");
 }
+
+#[test]
+fn a_part_whose_samples_lie_outside_its_claimed_region_is_refused() {
+    // A tile copied and forged to claim the other half, where its samples
+    // are not: merged with the original, the left half would count its
+    // samples twice. The per-pixel sample counts give it away.
+    let dir = tempfile::tempdir().unwrap();
+    let left = render(
+        dir.path(),
+        "left",
+        &["--samples", "0..4", "--tile", "0,0,20,24"],
+    );
+    let mut forged = spectral_exr::read(&left).unwrap();
+    forged.attributes.insert(
+        prism::merge::ATTR_REGION.to_string(),
+        "20,0,40,24".to_string(),
+    );
+    let forged_path = dir.path().join("forged.spectral.exr");
+    spectral_exr::write_image(&forged, &forged_path).unwrap();
+    let out = prism(&[
+        "merge",
+        "-o",
+        dir.path().join("m").to_str().unwrap(),
+        left.to_str().unwrap(),
+        forged_path.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("outside the part's region"), "{err}");
+}
