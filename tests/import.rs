@@ -14,6 +14,12 @@ use prism::material::{Ior, Material, ShadingGeometry};
 use prism::scene::{load, Scene};
 use prism::spectrum::SampledWavelengths;
 
+/// Writes NAME.obj and NAME.mtl into `dir`.
+fn write_obj_mtl(dir: &Path, name: &str, obj: &str, mtl: &str) {
+    std::fs::write(dir.join(format!("{name}.obj")), obj).unwrap();
+    std::fs::write(dir.join(format!("{name}.mtl")), mtl).unwrap();
+}
+
 const CAMERA: &str = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n";
 
 fn scene_in(dir: &Path, text: &str) -> Result<Scene, String> {
@@ -916,16 +922,12 @@ fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too()
     );
 
     // OBJ: Tf on glass is a filter (per unit of path), elsewhere ignored.
-    std::fs::write(
-        dir.path().join("tf.obj"),
+    write_obj_mtl(
+        dir.path(),
+        "tf",
         "mtllib tf.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nusemtl green_glass\nf 1 2 3 4\n",
-    )
-    .unwrap();
-    std::fs::write(
-        dir.path().join("tf.mtl"),
         "newmtl green_glass\nillum 7\nNi 1.5\nTf 0.3 0.9 0.3\n",
-    )
-    .unwrap();
+    );
     let s = scene_in(
         dir.path(),
         &format!("{CAMERA}{}", shape("obj", "tf.obj", "")),
@@ -1179,16 +1181,12 @@ fn stochastic_transparency_passes_the_expected_share_of_light() {
     // A black card of dissolve 0.3 (an MTL cut-out) in front of a white
     // emitter: 70 % of the emitter's radiance gets through, on average.
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("card.obj"),
+    write_obj_mtl(
+        dir.path(),
+        "card",
         "mtllib card.mtl\nv -3 -3 0\nv 3 -3 0\nv 3 3 0\nv -3 3 0\nusemtl veil\nf 1 2 3 4\n",
-    )
-    .unwrap();
-    std::fs::write(
-        dir.path().join("card.mtl"),
         "newmtl veil\nKd 0 0 0\nd 0.3\n",
-    )
-    .unwrap();
+    );
     let s = scene_in(
         dir.path(),
         &format!(
