@@ -3,11 +3,43 @@
 //! none above a size limit. A FIFO would block a read forever, /dev/zero
 //! would fill memory: they are refused before they are opened.
 
+use std::cell::RefCell;
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The largest input file read (8 GiB).
 pub const MAX_INPUT_BYTES: u64 = 8 << 30;
+
+thread_local! {
+    /// While `recording`: every file read, with a hash of its bytes.
+    static READ: RefCell<Option<Vec<(PathBuf, u64)>>> = const { RefCell::new(None) };
+}
+
+/// Runs `f`, returning with its result every file it read through
+/// [`read`] and a hash of each one's bytes (what a scene depends on).
+pub fn recording<T>(f: impl FnOnce() -> T) -> (T, Vec<(PathBuf, u64)>) {
+    let outer = READ.with(|r| r.borrow_mut().replace(Vec::new()));
+    let result = f();
+    let files = READ
+        .with(|r| std::mem::replace(&mut *r.borrow_mut(), outer))
+        .unwrap_or_default();
+    (result, files)
+}
+
+/// A 64-bit FNV-1a over 8-byte words (then the tail): quick on big meshes.
+pub fn content_hash(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut words = bytes.chunks_exact(8);
+    for w in &mut words {
+        h ^= u64::from_le_bytes(w.try_into().expect("eight bytes"));
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    for b in words.remainder() {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h ^ bytes.len() as u64
+}
 
 /// The bytes of the regular file at `path`; the error says why not
 /// ("cannot read: …").
@@ -38,6 +70,11 @@ pub fn read(path: &Path) -> Result<Vec<u8>, String> {
             MAX_INPUT_BYTES >> 30
         ));
     }
+    READ.with(|r| {
+        if let Some(files) = r.borrow_mut().as_mut() {
+            files.push((path.to_path_buf(), content_hash(&bytes)));
+        }
+    });
     Ok(bytes)
 }
 

@@ -332,3 +332,52 @@ fn a_part_whose_samples_lie_outside_its_claimed_region_is_refused() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("outside the part's region"), "{err}");
 }
+
+#[test]
+fn parts_rendered_before_and_after_a_loaded_file_changed_are_refused() {
+    // The scene file is the same; the spectrum file it loads is not.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("lamp.toml");
+    std::fs::write(
+        &scene,
+        "[camera]\nposition = [0, 0, -3]\nlook_at = [0, 0, 0]\n[film]\nresolution = [8, 8]\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\nemission = { file = \"lamp.csv\" }\n",
+    )
+    .unwrap();
+    let part = |name: &str, samples: &str| {
+        let stem = dir.path().join(name);
+        ok(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-q",
+            "--samples",
+            samples,
+            "-o",
+            stem.to_str().unwrap(),
+        ]);
+        stem.with_extension("spectral.exr")
+    };
+    std::fs::write(dir.path().join("lamp.csv"), "400,1\n700,1\n").unwrap();
+    let a = part("a", "0..2");
+    let same = part("same", "2..4");
+    std::fs::write(dir.path().join("lamp.csv"), "400,1\n700,2\n").unwrap();
+    let b = part("b", "4..6");
+    let merged = dir.path().join("m");
+    ok(&[
+        "merge",
+        "-o",
+        merged.to_str().unwrap(),
+        a.to_str().unwrap(),
+        same.to_str().unwrap(),
+    ]);
+    let out = prism(&[
+        "merge",
+        "-o",
+        merged.to_str().unwrap(),
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("different scenes"), "{err}");
+}

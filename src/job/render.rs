@@ -265,7 +265,12 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     eprintln!("wrote {} and {}", exr.display(), png.display());
     if film.spectral_output {
         let spectral = suffixed(&stem, "spectral.exr");
-        let scene_bytes = std::fs::read(&job.scene).unwrap_or_default();
+        // The scene file and every file it loads: a part rendered after a
+        // mesh or a spectrum changed is of another scene.
+        let mut scene_bytes = std::fs::read(&job.scene).unwrap_or_default();
+        for (_, hash) in scene.inputs.iter().skip(1) {
+            scene_bytes.extend_from_slice(&hash.to_le_bytes());
+        }
         let samples = &options.samples;
         let mut extra = vec![
             ("prismScene", job.scene.display().to_string()),

@@ -112,6 +112,9 @@ pub struct Scene {
     pub degenerate_triangles: usize,
     /// Problems found while loading that did not stop it (printed by the CLI).
     pub warnings: Vec<String>,
+    /// Every file the scene was loaded from (the scene file first), with a
+    /// hash of its bytes: what a partial render must share to be merged.
+    pub inputs: Vec<(std::path::PathBuf, u64)>,
 }
 
 impl Scene {
@@ -239,6 +242,7 @@ impl Scene {
             attributes,
             degenerate_triangles: degenerate,
             warnings: Vec::new(),
+            inputs: Vec::new(),
         }
     }
 

@@ -104,10 +104,15 @@ pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError
     if path.is_dir() {
         return Err(err("is a directory, not a scene file".into()));
     }
-    let text =
-        crate::input::read_to_string(path).map_err(|e| err(format!("the scene file: {e}")))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides)
+    let (scene, inputs) = crate::input::recording(|| {
+        let text =
+            crate::input::read_to_string(path).map_err(|e| err(format!("the scene file: {e}")))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides)
+    });
+    let mut scene = scene?;
+    scene.inputs = inputs;
+    Ok(scene)
 }
 
 /// Loads a scene from TOML text; `base` is the folder relative paths start from.
