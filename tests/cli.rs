@@ -249,3 +249,36 @@ fn an_output_folder_gets_files_named_like_the_scene_and_long_names_are_refused_f
     assert!(err.contains("too long"), "{err}");
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 3);
 }
+
+#[test]
+fn a_failed_write_leaves_the_earlier_set_whole_and_no_temporary_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    succeed(
+        prism()
+            .args(["render", "-q", "-o", "out"])
+            .arg(&scene)
+            .current_dir(dir.path()),
+    );
+    let before = std::fs::read(dir.path().join("out.exr")).unwrap();
+    // The spectral EXR's name is taken by a folder: the new set cannot be
+    // completed, so none of it may replace the old files.
+    std::fs::remove_file(dir.path().join("out.spectral.exr")).unwrap();
+    std::fs::create_dir(dir.path().join("out.spectral.exr")).unwrap();
+    let err = failing(
+        &["render", "-q", "--seed", "7", "-o", "out", "s.toml"],
+        dir.path(),
+    );
+    assert!(err.contains("out.spectral.exr"), "{err}");
+    assert_eq!(
+        std::fs::read(dir.path().join("out.exr")).unwrap(),
+        before,
+        "the old .exr stays"
+    );
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
+}

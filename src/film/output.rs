@@ -28,17 +28,65 @@ pub enum Tonemap {
     Filmic,
 }
 
-/// Writes `path` through a temporary sibling and a rename.
+thread_local! {
+    /// Inside `as_one_set`: files written but not yet moved into place.
+    static STAGED: std::cell::RefCell<Option<Vec<(PathBuf, PathBuf)>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Writes `path` through a temporary sibling and a rename (deferred to the
+/// end of `as_one_set` when inside one).
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = temp_name(path);
-    let result = write(&tmp).and_then(|_| {
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot move {} into place", tmp.display()))
-    });
-    if result.is_err() {
+    if let Err(e) = write(&tmp) {
         let _ = std::fs::remove_file(&tmp);
+        return Err(e);
     }
-    result
+    let staged = STAGED.with(|s| {
+        s.borrow_mut()
+            .as_mut()
+            .map(|files| files.push((tmp.clone(), path.to_path_buf())))
+            .is_some()
+    });
+    if staged {
+        return Ok(());
+    }
+    std::fs::rename(&tmp, path).with_context(|| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("cannot move {} into place", tmp.display())
+    })
+}
+
+/// Runs `write`, which writes several files, so that they replace the
+/// files of those names together: every file is written under its
+/// temporary name first, and only when all are written are they moved into
+/// place. A failure (a full disk, a name taken by a folder) leaves the
+/// files that were there before, all of them, and no temporary ones.
+pub fn as_one_set(write: impl FnOnce() -> Result<()>) -> Result<()> {
+    STAGED.with(|s| *s.borrow_mut() = Some(Vec::new()));
+    let result = write();
+    let files = STAGED.with(|s| s.borrow_mut().take()).unwrap_or_default();
+    let discard = |files: &[(PathBuf, PathBuf)]| {
+        for (tmp, _) in files {
+            let _ = std::fs::remove_file(tmp);
+        }
+    };
+    if let Err(e) = result {
+        discard(&files);
+        return Err(e);
+    }
+    // A name that cannot take its file fails before anything moves.
+    if let Some((_, taken)) = files.iter().find(|(_, path)| path.is_dir()) {
+        discard(&files);
+        anyhow::bail!("cannot write {}: a folder has that name", taken.display());
+    }
+    for (i, (tmp, path)) in files.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            discard(&files[i..]);
+            return Err(e).with_context(|| format!("cannot move {} into place", tmp.display()));
+        }
+    }
+    Ok(())
 }
 
 fn temp_name(path: &Path) -> PathBuf {

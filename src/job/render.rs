@@ -260,37 +260,44 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
     let exr = suffixed(&stem, "exr");
     let png = suffixed(&stem, "png");
-    output::write_film_exr(&result, film, &exr)?;
-    output::write_png(&result, film, &png)?;
+    // The set of files replaces an earlier render's all at once, or not at
+    // all: never an .exr of this render beside a .spectral.exr of another.
+    output::as_one_set(|| {
+        output::write_film_exr(&result, film, &exr)?;
+        output::write_png(&result, film, &png)?;
+        if film.spectral_output {
+            let spectral = suffixed(&stem, "spectral.exr");
+            // The scene file and every file it loads: a part rendered after a
+            // mesh or a spectrum changed is of another scene.
+            let mut scene_bytes = std::fs::read(&job.scene).unwrap_or_default();
+            for (_, hash) in scene.inputs.iter().skip(1) {
+                scene_bytes.extend_from_slice(&hash.to_le_bytes());
+            }
+            let samples = &options.samples;
+            let mut extra = vec![
+                ("prismScene", job.scene.display().to_string()),
+                (ATTR_SCENE_HASH, scene_hash(&scene_bytes)),
+                (ATTR_SEED, options.seed.to_string()),
+                (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
+                (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
+                ("prismIntegrator", scene.integrator.name().to_string()),
+                ("prismObserver", film.observer.name().to_string()),
+                // How `prism merge` makes the PNG from the R, G, B channels.
+                (ATTR_DISPLAY, film.display.name().to_string()),
+                (ATTR_RGB_TO_DISPLAY, matrix_text(rgb_to_display(film))),
+                (ATTR_GAMUT, format!("{:?}", film.gamut).to_lowercase()),
+                (ATTR_PNG_BITS, film.png_bits.to_string()),
+            ];
+            if stats.stop != Stop::Complete {
+                extra.push(("prismInterrupted", "true".into()));
+            }
+            spectral_exr::write(&result, &film.colour, &spectral, &extra)?;
+        }
+        Ok(())
+    })?;
     eprintln!("wrote {} and {}", exr.display(), png.display());
     if film.spectral_output {
-        let spectral = suffixed(&stem, "spectral.exr");
-        // The scene file and every file it loads: a part rendered after a
-        // mesh or a spectrum changed is of another scene.
-        let mut scene_bytes = std::fs::read(&job.scene).unwrap_or_default();
-        for (_, hash) in scene.inputs.iter().skip(1) {
-            scene_bytes.extend_from_slice(&hash.to_le_bytes());
-        }
-        let samples = &options.samples;
-        let mut extra = vec![
-            ("prismScene", job.scene.display().to_string()),
-            (ATTR_SCENE_HASH, scene_hash(&scene_bytes)),
-            (ATTR_SEED, options.seed.to_string()),
-            (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
-            (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
-            ("prismIntegrator", scene.integrator.name().to_string()),
-            ("prismObserver", film.observer.name().to_string()),
-            // How `prism merge` makes the PNG from the R, G, B channels.
-            (ATTR_DISPLAY, film.display.name().to_string()),
-            (ATTR_RGB_TO_DISPLAY, matrix_text(rgb_to_display(film))),
-            (ATTR_GAMUT, format!("{:?}", film.gamut).to_lowercase()),
-            (ATTR_PNG_BITS, film.png_bits.to_string()),
-        ];
-        if stats.stop != Stop::Complete {
-            extra.push(("prismInterrupted", "true".into()));
-        }
-        spectral_exr::write(&result, &film.colour, &spectral, &extra)?;
-        eprintln!("wrote {}", spectral.display());
+        eprintln!("wrote {}", suffixed(&stem, "spectral.exr").display());
     }
     Ok(RenderOutcome {
         interrupted: stats.interrupted,
