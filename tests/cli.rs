@@ -282,3 +282,34 @@ fn a_failed_write_leaves_the_earlier_set_whole_and_no_temporary_files() {
         .collect();
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
+
+#[test]
+fn temporary_files_of_a_killed_render_are_cleaned_up_by_the_next_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    // What a SIGKILL during the write phase leaves (a process id no
+    // running process has), and an unrelated file that looks alike.
+    let stale = [
+        ".out.partial-999999999.exr",
+        ".out.spectral.partial-999999999.exr",
+    ];
+    for name in stale {
+        std::fs::write(dir.path().join(name), b"half a file").unwrap();
+    }
+    std::fs::write(dir.path().join(".other.partial-999999999.exr"), b"not ours").unwrap();
+    let out = prism()
+        .args(["render", "-q", "-o", "out", "s.toml"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    if std::path::Path::new("/proc/self").exists() {
+        for name in stale {
+            assert!(!dir.path().join(name).exists(), "{name} left");
+            assert!(err.contains(name), "{err}");
+        }
+    }
+    assert!(dir.path().join(".other.partial-999999999.exr").exists());
+}

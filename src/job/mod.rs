@@ -45,6 +45,53 @@ pub fn suffixed(stem: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// Temporary files of earlier renders to `stem` (`.NAME.partial-PID.exr`,
+/// `.png`, `.spectral.exr`) whose process is gone (killed before it could
+/// clean up): removed where the process table can be read (/proc), else
+/// only named. Returns each with whether it was removed.
+pub fn stale_temporaries(stem: &Path) -> Vec<(PathBuf, bool)> {
+    let Some(name) = stem.file_name().map(|n| n.to_string_lossy().to_string()) else {
+        return Vec::new();
+    };
+    let dir = match stem.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Vec::new();
+    };
+    let can_tell = Path::new("/proc/self").exists();
+    let mut found = Vec::new();
+    for entry in entries.flatten() {
+        let file = entry.file_name().to_string_lossy().to_string();
+        let Some(pid) = temporary_pid(&file, &name) else {
+            continue;
+        };
+        if pid == std::process::id() {
+            continue;
+        }
+        let path = dir.join(&file);
+        if !can_tell {
+            found.push((path, false));
+        } else if !Path::new(&format!("/proc/{pid}")).exists() {
+            let removed = std::fs::remove_file(&path).is_ok();
+            found.push((path, removed));
+        }
+    }
+    found.sort();
+    found
+}
+
+/// The process id in `file` if it is a temporary name of one of the files
+/// of the render named `name` (see `film::output`'s temporary names).
+fn temporary_pid(file: &str, name: &str) -> Option<u32> {
+    let rest = file.strip_prefix('.')?.strip_prefix(name)?;
+    let rest = rest.strip_prefix(".spectral").unwrap_or(rest);
+    let (pid, ext) = rest.strip_prefix(".partial-")?.split_once('.')?;
+    matches!(ext, "exr" | "png").then_some(())?;
+    pid.parse().ok()
+}
+
 /// A byte count for people: KiB, MiB or GiB.
 pub fn human_bytes(bytes: usize) -> String {
     let b = bytes as f64;

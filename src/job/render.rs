@@ -150,6 +150,19 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
 
     let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
+    for (path, removed) in super::stale_temporaries(&stem) {
+        if removed {
+            eprintln!(
+                "removed {}, left by an earlier render of this name that was killed",
+                path.display()
+            );
+        } else {
+            eprintln!(
+                "warning: {} may be left by an earlier render that was killed",
+                path.display()
+            );
+        }
+    }
     let mut hooks: Vec<PassHook> = Vec::new();
     if let Some(every) = job.preview_every {
         hooks.push(preview_writer(
