@@ -176,18 +176,6 @@ impl PbrLobe {
         }
     }
 
-    /// The coat's normal-incidence reflectance, which the base under it loses.
-    fn coat_r0(&self) -> SampledSpectrum {
-        let s = self.layers.specular_weight;
-        match &self.layers.film {
-            Some(film) => film.blend(
-                self.f0 * s,
-                film.reflectance(1.0, SampledSpectrum::splat(self.ior)) * s,
-            ),
-            None => self.f0 * s,
-        }
-    }
-
     /// The metal's Fresnel factor per wavelength at `cos`.
     fn metal_fresnel(&self, cos: f32) -> SampledSpectrum {
         let plain = self.base + (SampledSpectrum::ONE - self.base) * schlick_weight(cos);
@@ -271,7 +259,9 @@ impl PbrLobe {
         let coupling = 28.0 / (23.0 * PI)
             * (1.0 - schlick_weight(0.5 * wi.z))
             * (1.0 - schlick_weight(0.5 * wo.z));
-        let dielectric = self.base * (SampledSpectrum::ONE - self.coat_r0()) * coupling + f_d * s;
+        // The base loses the coat's normal-incidence reflectance.
+        let dielectric =
+            self.base * (SampledSpectrum::ONE - self.coat_fresnel(1.0)) * coupling + f_d * s;
         let p_specular = self.p_specular(wo);
         let mut f = dielectric * (1.0 - self.metallic) + f_c * (self.metallic * s);
         let mut pdf =
