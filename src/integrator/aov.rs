@@ -14,7 +14,7 @@ use glam::Vec3;
 
 use super::interface::{bsdf_at, trace, Next};
 use super::ior_stack::IorStack;
-use super::volume::{Flight, NO_SCATTERING};
+use super::volume::Flight;
 use super::{camera_ray, PathCounters};
 use crate::material::TransportMode;
 use crate::sampler::Sampler;
@@ -64,7 +64,7 @@ impl Aovs {
             &mut IorStack::default(),
             &wl,
             &mut Flight::new(SampledSpectrum::ONE),
-            NO_SCATTERING,
+            None,
             &mut counters,
         ) else {
             return AovSample::default();

@@ -34,7 +34,7 @@ use glam::{Vec2, Vec3};
 use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
 use super::light_path;
-use super::volume::{self, mis_divisor, Flight};
+use super::volume::{mis_divisor, Flight};
 use super::{camera_ray, lens_sample, PathCounters, PixelSample};
 use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
@@ -509,14 +509,13 @@ impl Walk {
         let mut eta_scale = 1.0f32;
         while path.len() < self.max_vertices {
             let prev = path.len() - 1;
-            let u_flight = volume::flight_number(scene, sampler);
             let next = trace(
                 scene,
                 &mut ray,
                 &mut stack,
                 wl,
                 &mut flight,
-                u_flight,
+                Some(&mut *sampler),
                 counters,
             );
             beta = flight.beta;

@@ -12,6 +12,7 @@ use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, ShadingGeometry};
 use crate::medium::HenyeyGreenstein;
+use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -56,17 +57,18 @@ pub enum Next {
 /// `ray` is the segment that reached the surface, escaped or scattered;
 /// every ray traced counts. In a medium the path's throughput `flight`
 /// attenuates (Beer–Lambert), and in a scattering one the path may
-/// scatter: `u_flight` draws the free-flight distance (`volume::fly`).
+/// scatter: `sampler` draws the free-flight distance (`volume::fly`);
+/// None never scatters (first-hit queries).
 pub fn trace(
     scene: &Scene,
     ray: &mut Ray,
     stack: &mut IorStack,
     wl: &SampledWavelengths,
     flight: &mut Flight,
-    u_flight: f32,
+    sampler: Option<&mut Sampler>,
     counters: &mut PathCounters,
 ) -> Next {
-    let mut optical_depth = volume::optical_depth(u_flight);
+    let mut optical_depth = volume::optical_depth(scene, sampler);
     for _ in 0..=MAX_FALSE_INTERSECTIONS {
         counters.rays += 1;
         let hit = scene.intersect(ray);
@@ -133,19 +135,11 @@ pub fn transmittance(
         let Some(hit) = hit else {
             return tr;
         };
-        let material = &scene.materials[hit.material as usize];
-        if !material.bounds_volume() {
+        // What a path would pass (an interface, a false intersection) the
+        // shadow ray passes too; a real surface blocks it.
+        if let Meeting::Real { .. } = meet(scene, &hit, ray.dir, &mut stack, wl, counters) {
             return SampledSpectrum::ZERO;
         }
-        let e = Entry {
-            material: hit.material,
-            priority: material.priority(),
-        };
-        let entering = ray.dir.dot(hit.ng) < 0.0;
-        if !material.is_interface() && stack.classify(e, entering) != Crossing::False {
-            return SampledSpectrum::ZERO;
-        }
-        move_through(&mut stack, e, entering, counters);
         let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir);
         ray = if shadow.t_max.is_finite() {
             Ray::towards(origin, target)

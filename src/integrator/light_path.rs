@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::interface::{bsdf_at, media_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
-use super::volume::{self, Flight};
+use super::volume::Flight;
 use super::PathCounters;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -168,14 +168,13 @@ pub fn walk(
     let mut flight = Flight::new(start.beta);
     let mut depth = 0;
     while depth < max_depth {
-        let u_flight = volume::flight_number(scene, sampler);
         match trace(
             scene,
             &mut ray,
             &mut stack,
             wl,
             &mut flight,
-            u_flight,
+            Some(&mut *sampler),
             counters,
         ) {
             Next::Surface { hit, eta, medium } => {

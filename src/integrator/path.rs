@@ -5,7 +5,7 @@
 
 use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
-use super::volume::{self, Flight};
+use super::volume::Flight;
 use super::{power_heuristic, PathCounters, Strategy};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -88,16 +88,13 @@ impl PathTracer {
         // denser medium, which Russian roulette must not mistake for a dim path.
         let mut eta_scale = 1.0f32;
         loop {
-            // Scenes with scattering media draw a free flight per segment
-            // (only then, so other scenes keep their sample dimensions).
-            let u_flight = volume::flight_number(scene, sampler);
             let next = trace(
                 scene,
                 &mut ray,
                 &mut stack,
                 wl,
                 &mut flight,
-                u_flight,
+                Some(&mut *sampler),
                 counters,
             );
             let (hit, eta, medium) = match next {

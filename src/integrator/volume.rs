@@ -64,15 +64,21 @@ impl Flight {
     }
 }
 
-/// The number that draws the next free flight: one per segment in scenes
-/// with scattering media, none elsewhere (their sample dimensions stay as
-/// they were).
+/// The hero's optical depth to the next scattering event, drawn from
+/// `sampler`: one number per segment in scenes with scattering media, none
+/// elsewhere (their sample dimensions stay as they were, and the depth is
+/// never used). Without a sampler (first-hit queries such as AOVs) the
+/// path never scatters.
 #[inline]
-pub fn flight_number(scene: &Scene, sampler: &mut Sampler) -> f32 {
-    if scene.has_scattering() {
-        sampler.next_4d()[0]
-    } else {
-        0.0
+pub fn optical_depth(scene: &Scene, sampler: Option<&mut Sampler>) -> f32 {
+    match sampler {
+        Some(s) if scene.has_scattering() => {
+            let u = s.next_4d()[0];
+            // Clamped so the depth stays finite.
+            -(1.0 - u.min(1.0 - f32::EPSILON)).ln()
+        }
+        Some(_) => 0.0,
+        None => f32::INFINITY,
     }
 }
 
@@ -89,21 +95,6 @@ pub fn mis_divisor(r: SampledSpectrum, wl: &SampledWavelengths) -> f32 {
     } else {
         1.0
     }
-}
-
-/// A free-flight number that never scatters: for queries of the first
-/// surface along a ray (AOVs), which attenuate but do not sample.
-pub const NO_SCATTERING: f32 = 1.0;
-
-/// The hero's optical depth to the next scattering event, for a uniform
-/// number `u` in [0, 1) (clamped so the depth stays finite), infinite for
-/// [`NO_SCATTERING`].
-#[inline]
-pub fn optical_depth(u: f32) -> f32 {
-    if u >= NO_SCATTERING {
-        return f32::INFINITY;
-    }
-    -(1.0 - u.min(1.0 - f32::EPSILON)).ln()
 }
 
 /// Carries `flight` over a segment of length `d` (may be infinite) in
