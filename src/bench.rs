@@ -67,8 +67,6 @@ pub struct BenchOptions {
     pub reference: Option<PathBuf>,
     pub threads: Option<usize>,
     pub out_dir: PathBuf,
-    /// Identifies the scene file's content, for the reference cache.
-    pub scene_hash: String,
     /// Render with this integrator instead of the scene file's.
     pub integrator: Option<crate::integrator::IntegratorKind>,
 }
@@ -79,7 +77,10 @@ pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec
     let path = opts.reference.clone().unwrap_or_else(|| {
         opts.out_dir.join(format!(
             "reference-{}-{}x{}-{}spp.exr",
-            opts.scene_hash, scene.film.width, scene.film.height, opts.reference_spp
+            scene.content_hash(),
+            scene.film.width,
+            scene.film.height,
+            opts.reference_spp
         ))
     });
     if path.exists() {

@@ -366,16 +366,12 @@ fn run(cli: Cli) -> Result<ExitCode> {
             out,
             integrator,
         } => {
-            let hash = std::fs::read(&scene)
-                .map(|bytes| prism::merge::scene_hash(&bytes))
-                .unwrap_or_default();
             let opts = prism::bench::BenchOptions {
                 ladder: spp,
                 reference_spp,
                 reference,
                 threads,
                 out_dir: out,
-                scene_hash: hash,
                 integrator,
             };
             prism::bench::run(&scene, resolution, &opts)?;

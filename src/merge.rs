@@ -17,7 +17,8 @@ pub const ATTR_SEED: &str = "prismSeed";
 pub const ATTR_SAMPLES: &str = "prismSampleRange";
 pub const ATTR_REGION: &str = "prismRegion";
 
-/// FNV-1a 64 of a scene file's bytes: identifies the scene a part belongs to.
+/// FNV-1a 64 of some bytes as hex: what identifies the scene a part belongs
+/// to (`Scene::content_hash` gives it the hashes of the scene's files).
 pub fn scene_hash(bytes: &[u8]) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in bytes {

@@ -18,7 +18,7 @@ use crate::film::{output, spectral_exr};
 use crate::film::{ColourTransform, Film, FilmSettings};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
-use crate::merge::{scene_hash, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
+use crate::merge::{ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
 use crate::render::{render, PassHook, RenderOptions, Stop};
 use crate::scene::{self, Overrides};
 
@@ -280,16 +280,12 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         output::write_png(&result, film, &png)?;
         if film.spectral_output {
             let spectral = suffixed(&stem, "spectral.exr");
-            // The scene file and every file it loads: a part rendered after a
-            // mesh or a spectrum changed is of another scene.
-            let mut scene_bytes = std::fs::read(&job.scene).unwrap_or_default();
-            for (_, hash) in scene.inputs.iter().skip(1) {
-                scene_bytes.extend_from_slice(&hash.to_le_bytes());
-            }
             let samples = &options.samples;
             let mut extra = vec![
                 ("prismScene", job.scene.display().to_string()),
-                (ATTR_SCENE_HASH, scene_hash(&scene_bytes)),
+                // The scene file and every file it loads: a part rendered
+                // after a mesh or a spectrum changed is of another scene.
+                (ATTR_SCENE_HASH, scene.content_hash()),
                 (ATTR_SEED, options.seed.to_string()),
                 (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
                 (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),

@@ -247,6 +247,19 @@ impl Scene {
     }
 
     /// Whether any material is a dielectric.
+    /// Identifies what the scene was loaded from: the scene file and every
+    /// file it read (meshes, materials, textures, buffers, spectra, maps),
+    /// by content. Partial renders must share it to be merged; the bench
+    /// keys its cached references by it.
+    pub fn content_hash(&self) -> String {
+        let bytes: Vec<u8> = self
+            .inputs
+            .iter()
+            .flat_map(|(_, hash)| hash.to_le_bytes())
+            .collect();
+        crate::merge::scene_hash(&bytes)
+    }
+
     pub fn has_dielectrics(&self) -> bool {
         self.has_dielectrics
     }
