@@ -45,6 +45,14 @@ pub fn suffixed(stem: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// The folder the files of `stem` go in ("." for a bare name).
+fn output_dir(stem: &Path) -> PathBuf {
+    match stem.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
 /// Temporary files of earlier renders to `stem` (`.NAME.partial-PID.exr`,
 /// `.png`, `.spectral.exr`) whose process is gone (killed before it could
 /// clean up): removed where the process table can be read (/proc), else
@@ -53,10 +61,7 @@ pub fn stale_temporaries(stem: &Path) -> Vec<(PathBuf, bool)> {
     let Some(name) = stem.file_name().map(|n| n.to_string_lossy().to_string()) else {
         return Vec::new();
     };
-    let dir = match stem.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let dir = output_dir(stem);
     let Ok(entries) = std::fs::read_dir(&dir) else {
         return Vec::new();
     };
@@ -117,10 +122,7 @@ pub fn check_writable(stem: &Path) -> Result<()> {
             stem.display()
         );
     }
-    let dir = match stem.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let dir = output_dir(stem);
     if !dir.is_dir() {
         bail!("output folder {} does not exist", dir.display());
     }
