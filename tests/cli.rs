@@ -55,10 +55,7 @@ fn render_writes_exr_and_png() {
         .iter()
         .all(|p| p.iter().all(|v| v.is_finite() && *v >= -1e-3)));
     // No temporary files are left behind.
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into())
-        .collect();
+    let names = file_names(dir.path());
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
 
@@ -81,6 +78,14 @@ fn output_option_and_determinism_across_threads() {
         a == b,
         "the same scene and seed gave different images with 1 and 2 threads"
     );
+}
+
+/// The names of the files in `dir`, in no particular order.
+fn file_names(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect()
 }
 
 fn succeed(cmd: &mut Command) {
@@ -160,10 +165,7 @@ fn sigterm_writes_the_samples_done_so_far() {
         "{:?}",
         &counts[..4]
     );
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into())
-        .collect();
+    let names = file_names(dir.path());
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
 
@@ -236,10 +238,7 @@ fn an_output_folder_gets_files_named_like_the_scene_and_long_names_are_refused_f
             .arg(&scene)
             .current_dir(&out),
     );
-    let mut names: Vec<String> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into())
-        .collect();
+    let mut names = file_names(&out);
     names.sort();
     assert_eq!(names, ["s.exr", "s.png", "s.spectral.exr"]);
     // A name that cannot hold its suffixes fails before rendering, and
@@ -276,10 +275,7 @@ fn a_failed_write_leaves_the_earlier_set_whole_and_no_temporary_files() {
         before,
         "the old .exr stays"
     );
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into())
-        .collect();
+    let names = file_names(dir.path());
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
 

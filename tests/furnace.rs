@@ -4,47 +4,15 @@
 
 mod common;
 
-use common::{render_film, scene};
-use prism::scene::Scene;
+use common::{furnace_scene, render_film, scene};
 
-/// The furnace: a closed sphere of albedo `albedo` emitting `emission`
-/// inwards, the camera inside; `extra` adds TOML (materials, shapes).
-fn furnace_scene(albedo: f64, emission: f64, strategy: &str, extra: &str) -> Scene {
-    scene(&format!(
-        r#"
-        [camera]
-        position = [0.1, -0.2, 0.05]
-        look_at = [0, 0, 1]
-        fov = 100
-
-        [film]
-        resolution = [8, 8]
-        spp = 256
-        max_depth = 100000
-
-        [integrator]
-        strategy = "{strategy}"
-
-        [materials.wall]
-        type = "diffuse"
-        reflectance = {albedo}
-
-        [[shape]]
-        type = "sphere"
-        radius = 1
-        segments = 24
-        smooth = false
-        flip_normals = true
-        material = "wall"
-        emission = {emission}
-
-        {extra}
-        "#
-    ))
+/// The `[integrator]` lines choosing the path tracer's `strategy`.
+fn strategy_table(strategy: &str) -> String {
+    format!("strategy = \"{strategy}\"")
 }
 
 fn furnace(albedo: f64, emission: f64, strategy: &str) {
-    let s = furnace_scene(albedo, emission, strategy, "");
+    let s = furnace_scene(albedo, emission, 256, &strategy_table(strategy), "");
     let film = render_film(&s, 2);
     let expected = emission / (1.0 - albedo);
     let (mut total, mut total_var) = (0.0, 0.0);
@@ -115,7 +83,7 @@ fn furnace_with_dielectric_spheres() {
             material = "glass"
             "#
         );
-        let s = furnace_scene(0.5, 0.25, "mis", &glass);
+        let s = furnace_scene(0.5, 0.25, 256, &strategy_table("mis"), &glass);
         let film = render_film(&s, 2);
         let (mut total, mut var) = (0.0, 0.0);
         for y in 0..8 {

@@ -128,33 +128,7 @@ fn a_slab_transmits_by_beer_lambert_at_every_wavelength() {
 /// uniform radiance field as it is, whatever its density or phase
 /// function, and at every wavelength.
 fn furnace_with_medium(medium: &str, integrator: &str) {
-    let s = scene(&format!(
-        r#"
-        [camera]
-        position = [0.1, -0.2, 0.05]
-        look_at = [0, 0, 1]
-        fov = 100
-        [film]
-        resolution = [8, 8]
-        spp = 128
-        [integrator]
-        {integrator}
-        max_depth = 100000
-        [materials.wall]
-        type = "diffuse"
-        reflectance = 0.5
-        [[shape]]
-        type = "sphere"
-        radius = 1
-        segments = 24
-        smooth = false
-        flip_normals = true
-        material = "wall"
-        emission = 0.25
-        [medium]
-        {medium}
-        "#
-    ));
+    let s = common::furnace_scene(0.5, 0.25, 128, integrator, &format!("[medium]\n{medium}"));
     let expected = 0.5;
     let (total, total_var) = if s.integrator.splats() {
         // Splats make per-pixel variances meaningless: the spread of the

@@ -38,6 +38,45 @@ pub fn repo_scene(relative: &str, film: &str, integrator: &str) -> Scene {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The white furnace: a closed sphere of albedo `albedo` emitting
+/// `emission` inwards (so radiance is emission / (1 − albedo) everywhere),
+/// the camera inside, 8 × 8 pixels at `spp`; `integrator` adds lines to the
+/// `[integrator]` table (unbounded depth), `extra` adds TOML (materials,
+/// shapes, a medium).
+pub fn furnace_scene(albedo: f64, emission: f64, spp: u32, integrator: &str, extra: &str) -> Scene {
+    scene(&format!(
+        r#"
+        [camera]
+        position = [0.1, -0.2, 0.05]
+        look_at = [0, 0, 1]
+        fov = 100
+
+        [film]
+        resolution = [8, 8]
+        spp = {spp}
+
+        [integrator]
+        max_depth = 100000
+        {integrator}
+
+        [materials.wall]
+        type = "diffuse"
+        reflectance = {albedo}
+
+        [[shape]]
+        type = "sphere"
+        radius = 1
+        segments = 24
+        smooth = false
+        flip_normals = true
+        material = "wall"
+        emission = {emission}
+
+        {extra}
+        "#
+    ))
+}
+
 pub fn render_film(scene: &Scene, threads: usize) -> Film {
     let (film, stats) = render(
         scene,
