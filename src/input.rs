@@ -41,9 +41,10 @@ pub fn content_hash(bytes: &[u8]) -> u64 {
     h ^ bytes.len() as u64
 }
 
-/// The bytes of the regular file at `path`; the error says why not
-/// ("cannot read: …").
-pub fn read(path: &Path) -> Result<Vec<u8>, String> {
+/// The size of the regular file at `path`, if it is one within the size
+/// limit; the error says why not ("cannot read: …"). Opening anything else
+/// could block (a FIFO) or never end (a device).
+pub fn regular_file_size(path: &Path) -> Result<u64, String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
     if !meta.is_file() {
         let what = if meta.is_dir() {
@@ -60,7 +61,14 @@ pub fn read(path: &Path) -> Result<Vec<u8>, String> {
             MAX_INPUT_BYTES >> 30
         ));
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    Ok(meta.len())
+}
+
+/// The bytes of the regular file at `path`; the error says why not
+/// ("cannot read: …").
+pub fn read(path: &Path) -> Result<Vec<u8>, String> {
+    let size = regular_file_size(path)?;
+    let mut bytes = Vec::with_capacity(size as usize);
     std::fs::File::open(path)
         .and_then(|f| f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes))
         .map_err(|e| format!("cannot read: {e}"))?;

@@ -18,6 +18,7 @@ pub mod job;
 pub mod light;
 pub mod material;
 pub mod medium;
+pub mod memory;
 pub mod merge;
 pub mod render;
 pub mod sampler;

@@ -2,15 +2,13 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
 use prism::film::{Gamut, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
-use prism::job::{describe, merge_files, render_files, MergeJob, RenderJob};
+use prism::job::{describe, merge_files, render_files, Interrupts, MergeJob, Reaction, RenderJob};
 use prism::scene::Overrides;
 
 /// prism: a spectral, physically based path tracer.
@@ -19,6 +17,12 @@ use prism::scene::Overrides;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The memory budget (such as 4G or 512M): what the inputs decode into
+    /// and what a render will hold (film, tiles, output buffers) is checked
+    /// against it before it is allocated, and refused with a message when
+    /// it would not fit. Default: the memory available when prism starts.
+    #[arg(long, global = true, value_name = "SIZE", value_parser = prism::memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -259,6 +263,9 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
+    if let Some(bytes) = cli.max_memory {
+        prism::memory::set_limit(bytes);
+    }
     match cli.command {
         Command::Render {
             scene,
@@ -307,15 +314,20 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     StrategyArg::Bsdf => Strategy::Bsdf,
                 }),
             };
-            let cancel = Arc::new(AtomicBool::new(false));
+            let interrupts = Interrupts::new();
             {
-                let cancel = cancel.clone();
-                ctrlc::set_handler(move || {
-                    if cancel.swap(true, Ordering::SeqCst) {
+                let interrupts = interrupts.clone();
+                ctrlc::set_handler(move || match interrupts.on_signal() {
+                    Reaction::Stop => eprintln!(
+                        "\ninterrupted: finishing the samples under way, then writing (Ctrl-C again to abort)"
+                    ),
+                    Reaction::Exit => {
                         eprintln!("\ninterrupted again: exiting without writing");
                         std::process::exit(130);
                     }
-                    eprintln!("\ninterrupted: finishing the samples under way, then writing (Ctrl-C again to abort)");
+                    Reaction::Wait => eprintln!(
+                        "\ninterrupted while writing: the files are finished first, so that they replace the old ones together"
+                    ),
                 })
                 .context("cannot install the Ctrl-C handler")?;
             }
@@ -329,7 +341,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 threads,
                 seed,
                 progress: !quiet,
-                cancel,
+                interrupts,
                 time_budget: time,
                 target_error,
                 log_every: std::time::Duration::from_secs_f64(log_every.max(0.1)),

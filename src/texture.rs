@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
+use crate::memory;
 use crate::spectrum::cie::srgb_decode;
 use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -67,13 +68,15 @@ pub struct Texture {
 
 impl Texture {
     /// Decodes an image file's bytes (PNG, JPEG, …; the format is guessed
-    /// from the content).
+    /// from the content), within the memory budget.
     pub fn decode(bytes: &[u8], encoding: Encoding) -> Result<Texture, String> {
-        let image = image::load_from_memory(bytes).map_err(|e| format!("cannot decode: {e}"))?;
+        let held = match encoding {
+            Encoding::SrgbColour | Encoding::Linear => 16,
+            Encoding::Alpha | Encoding::Matte => 4,
+        };
+        // The RGBA float copy below is 16 bytes a texel.
+        let image = decode_image(bytes, 16, held)?;
         let (width, height) = (image.width(), image.height());
-        if width == 0 || height == 0 {
-            return Err("the image is empty".into());
-        }
         // Values scaled to [0, 1] per channel, no colour conversion yet.
         let mut rgba = image.to_rgba32f().into_raw();
         if encoding == Encoding::Matte && !image.color().has_alpha() {
@@ -81,6 +84,7 @@ impl Texture {
                 p[3] = (p[0] + p[1] + p[2]) / 3.0;
             }
         }
+        drop(image);
         Ok(Self::from_rgba(width, height, &rgba, encoding))
     }
 
@@ -254,6 +258,54 @@ impl TextureRef {
 
     pub fn linear(&self, uv: Vec2) -> Vec4 {
         self.texture.linear(self.uv(uv))
+    }
+}
+
+/// Decodes an image (format guessed from the content) after checking its
+/// declared size against the memory budget: the decoder's buffer (counted
+/// three times over, for decoders' working copies such as a progressive
+/// JPEG's coefficients), `scratch` bytes a texel that the caller uses
+/// briefly, and `held` bytes a texel that it keeps. A 64 KB file declaring
+/// 23000×23000 texels is refused here, before anything is allocated.
+pub fn decode_image(bytes: &[u8], scratch: u64, held: u64) -> Result<image::DynamicImage, String> {
+    use image::ImageDecoder;
+    let cannot = |e: image::ImageError| format!("cannot decode: {e}");
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| format!("cannot decode: {e}"))?;
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(memory::limit().0);
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(cannot)?;
+    let (width, height) = decoder.dimensions();
+    if width == 0 || height == 0 {
+        return Err("the image is empty".into());
+    }
+    let texels = width as u64 * height as u64;
+    let what = format!("the decoded image ({width}x{height} texels)");
+    let decoded = decoder.total_bytes();
+    memory::check(
+        &what,
+        decoded
+            .saturating_mul(3)
+            .saturating_add(texels.saturating_mul(scratch + held)),
+    )?;
+    memory::hold(&what, texels * held)?;
+    image::DynamicImage::from_decoder(decoder).map_err(cannot)
+}
+
+/// Whether JPEG bytes stop before their end-of-image marker: a truncated
+/// file, which the decoder fills in silently. Entropy-coded data never
+/// holds FF D9 (a data FF is followed by 00), so the marker must follow
+/// the last start-of-scan; an EXIF thumbnail's own marker comes before it.
+pub fn jpeg_is_truncated(bytes: &[u8]) -> bool {
+    if !bytes.starts_with(&[0xFF, 0xD8]) {
+        return false;
+    }
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    match last_scan {
+        Some(at) => !bytes[at..].windows(2).any(|w| w == [0xFF, 0xD9]),
+        None => true,
     }
 }
 

@@ -170,6 +170,59 @@ fn sigterm_writes_the_samples_done_so_far() {
 }
 
 #[test]
+fn interrupts_while_writing_let_the_files_finish_as_one_set() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("big.toml"), SCENE).unwrap();
+    // 512² with 400 buckets: writing takes a second or more.
+    let mut child = prism()
+        .args([
+            "render",
+            "big.toml",
+            "--spp",
+            "1",
+            "--resolution",
+            "512x512",
+        ])
+        .args(["--spectral-buckets", "400", "--threads", "2"])
+        .current_dir(dir.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = String::new();
+    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        err += &line;
+        err += "\n";
+        if line.starts_with("rendered ") {
+            break;
+        }
+    }
+    // Two interrupts as the writing begins: once, the second one exited
+    // with "exiting without writing" and left a half-written file.
+    for _ in 0..2 {
+        let pid = child.id() as libc::pid_t;
+        // SAFETY: kill only sends a signal to our child.
+        assert_eq!(unsafe { libc::kill(pid, libc::SIGTERM) }, 0);
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    for line in lines {
+        err += &line.unwrap();
+        err += "\n";
+    }
+    let status = child.wait().unwrap();
+    assert!(!err.contains("without writing"), "{err}");
+    assert_eq!(status.code(), Some(0), "{err}");
+    let names = file_names(dir.path());
+    assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
+    let img = prism::film::spectral_exr::read(&dir.path().join("big.spectral.exr")).unwrap();
+    assert_eq!((img.width, img.spectral.len()), (512, 400));
+    assert!(image::open(dir.path().join("big.png")).is_ok());
+    assert!(dir.path().join("big.exr").exists());
+}
+
+#[test]
 fn resource_failures_and_command_line_values_are_errors_not_panics() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("ok.toml"), SCENE).unwrap();
@@ -213,7 +266,7 @@ fn resource_failures_and_command_line_values_are_errors_not_panics() {
     let part = dir.path().join("part.spectral.exr");
     let mut img = prism::film::spectral_exr::read(&part).unwrap();
     img.other.remove("R");
-    prism::film::spectral_exr::write_image(&img, &part).unwrap();
+    prism::film::spectral_exr::write_image(img, &part).unwrap();
     let err = failing(&["merge", "part.spectral.exr", "-o", "merged"], dir.path());
     assert!(err.contains("no `R` channel"), "{err}");
 }
@@ -308,4 +361,136 @@ fn temporary_files_of_a_killed_render_are_cleaned_up_by_the_next_one() {
         }
     }
     assert!(dir.path().join(".other.partial-999999999.exr").exists());
+}
+
+/// A PNG declaring `width` × `height` RGB texels with an empty zlib
+/// stream for data: a decompression bomb's declaration.
+fn declared_png(width: u32, height: u32) -> Vec<u8> {
+    let chunk = |kind: &[u8], body: &[u8]| {
+        let mut typed = kind.to_vec();
+        typed.extend_from_slice(body);
+        let mut c = 0xffff_ffffu32;
+        for &b in &typed {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        let mut out = (body.len() as u32).to_be_bytes().to_vec();
+        out.extend_from_slice(&typed);
+        out.extend_from_slice(&(!c).to_be_bytes());
+        out
+    };
+    let mut ihdr = width.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(b"IDAT", &[0x78, 1, 1, 0, 0, 0xff, 0xff, 0, 0, 0, 1]));
+    png.extend(chunk(b"IEND", &[]));
+    png
+}
+
+#[test]
+fn memory_bombs_are_refused_before_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A 23000² texture declared in 57 bytes.
+    std::fs::write(d.join("bomb.png"), declared_png(23000, 23000)).unwrap();
+    let textured = SCENE.replace(
+        "[[shape]]\ntype = \"quad\"",
+        "[materials.t]\ntype = \"diffuse\"\ntexture = \"bomb.png\"\n\n[[shape]]\nmaterial = \"t\"\ntype = \"quad\"",
+    );
+    std::fs::write(d.join("textured.toml"), textured).unwrap();
+    let err = failing(&["--max-memory", "1G", "render", "textured.toml"], d);
+    assert!(
+        err.contains("bomb.png: the decoded image (23000x23000 texels) would need")
+            && err.contains("more than the memory budget (--max-memory) of 1.00 GiB"),
+        "{err}"
+    );
+    // Twelve spheres of 4096 segments (0.4 GiB of mesh each).
+    let mut spheres = SCENE.to_string();
+    for i in 0..12 {
+        spheres += &format!(
+            "[[shape]]\ntype = \"sphere\"\ncenter = [{i}, 0, 0]\nradius = 0.1\nsegments = 4096\n"
+        );
+    }
+    std::fs::write(d.join("spheres.toml"), spheres).unwrap();
+    let err = failing(&["--max-memory", "1G", "render", "spheres.toml"], d);
+    assert!(
+        err.contains("(4096 segments) would need") && err.contains("already loaded"),
+        "{err}"
+    );
+    // A film and its output buffers beyond the budget, with the estimate's
+    // parts named.
+    std::fs::write(d.join("ok.toml"), SCENE).unwrap();
+    let err = failing(
+        &[
+            "--max-memory",
+            "64M",
+            "render",
+            "ok.toml",
+            "--resolution",
+            "2048x2048",
+        ],
+        d,
+    );
+    assert!(
+        err.contains("the film (2048x2048 pixels, 40 spectral buckets) would need"),
+        "{err}"
+    );
+    let err = failing(
+        &[
+            "--max-memory",
+            "64M",
+            "render",
+            "ok.toml",
+            "--resolution",
+            "512x512",
+            "--spectral-buckets",
+            "4",
+        ],
+        d,
+    );
+    assert!(
+        err.contains("the render would need") && err.contains("film") && err.contains("writing"),
+        "{err}"
+    );
+    // An EXR whose header declares 32768² pixels: `info` and `merge` refuse
+    // it from the header.
+    succeed(
+        prism()
+            .args(["render", "ok.toml", "-q", "--spp", "1", "-o", "part"])
+            .current_dir(d),
+    );
+    let path = d.join("part.spectral.exr");
+    let mut bytes = std::fs::read(&path).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+    for (k, v) in [0i32, 0, 32767, 32767].iter().enumerate() {
+        bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(&path, bytes).unwrap();
+    for args in [
+        vec!["--max-memory", "1G", "info", "part.spectral.exr"],
+        vec![
+            "--max-memory",
+            "1G",
+            "merge",
+            "part.spectral.exr",
+            "-o",
+            "m",
+        ],
+    ] {
+        let err = failing(&args, d);
+        assert!(
+            err.contains("part.spectral.exr: its pixels (1073741824 declared")
+                && err.contains("more than the memory budget"),
+            "{err}"
+        );
+    }
 }

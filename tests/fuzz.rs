@@ -452,3 +452,278 @@ fn rich_gltf_sample_loads() {
     let s = prism::scene::load_str(scene, dir.path()).unwrap_or_else(|e| panic!("{}", e.message));
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }
+
+// Resource bombs, special files and integer ranges (issue 19's classes).
+// Every case runs under a 64 MiB memory budget, so a forged size that got
+// past the checks would fail the case instead of taking the machine.
+
+const BUDGET: u64 = 64 << 20;
+
+/// A PNG whose header declares `width` × `height` (colour type and bit
+/// depth as given) with a little zlib data: a decompression bomb's shape.
+fn forged_png(width: u32, height: u32, colour: u8, depth: u8, rows: usize) -> Vec<u8> {
+    let mut data = Vec::new();
+    let mut z = flate2_like_stored(&vec![0u8; rows * 16]);
+    data.append(&mut z);
+    let chunk = |kind: &[u8], body: &[u8]| {
+        let mut c = (body.len() as u32).to_be_bytes().to_vec();
+        c.extend_from_slice(kind);
+        c.extend_from_slice(body);
+        let crc = crc32(&c[4..]);
+        c.extend_from_slice(&crc.to_be_bytes());
+        c
+    };
+    let mut ihdr = width.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[depth, colour, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(b"IDAT", &data));
+    png.extend(chunk(b"IEND", &[]));
+    png
+}
+
+/// A zlib stream of stored (uncompressed) blocks.
+fn flate2_like_stored(bytes: &[u8]) -> Vec<u8> {
+    let mut out = vec![0x78, 0x01];
+    let blocks: Vec<&[u8]> = bytes.chunks(65535).collect();
+    for (i, b) in blocks.iter().enumerate() {
+        out.push(u8::from(i + 1 == blocks.len()));
+        out.extend_from_slice(&(b.len() as u16).to_le_bytes());
+        out.extend_from_slice(&(!(b.len() as u16)).to_le_bytes());
+        out.extend_from_slice(b);
+    }
+    if blocks.is_empty() {
+        out.extend_from_slice(&[1, 0, 0, 0xff, 0xff]);
+    }
+    let (mut a, mut b) = (1u32, 0u32);
+    for &x in bytes {
+        a = (a + x as u32) % 65521;
+        b = (b + a) % 65521;
+    }
+    out.extend_from_slice(&((b << 16) | a).to_be_bytes());
+    out
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+/// A baseline JPEG of `w` × `h` from the image crate's encoder.
+fn jpeg(w: u32, h: u32) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb([x as u8 * 9, y as u8 * 5, 77]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Jpeg).unwrap();
+    out.into_inner()
+}
+
+/// Loads a one-quad scene textured with `file`, within the test budget.
+fn load_textured(dir: &std::path::Path, file: &str) -> Result<prism::scene::Scene, String> {
+    let scene = format!(
+        "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\n\
+         [materials.t]\ntype = \"diffuse\"\ntexture = \"{file}\"\n\
+         [[shape]]\ntype = \"quad\"\nvertices = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]\nmaterial = \"t\"\n"
+    );
+    let (result, _) = prism::memory::tallying(Some(BUDGET), || prism::scene::load_str(&scene, dir));
+    result.map_err(|e| e.message)
+}
+
+proptest! {
+    #![proptest_config(config(200))]
+
+    /// Images that declare any size: refused by the budget before their
+    /// texels exist, or decoded; never a panic or an abort.
+    #[test]
+    fn forged_image_sizes_load_or_are_refused(
+        width in prop_oneof![1u32..64, 1u32..=u32::MAX],
+        height in prop_oneof![1u32..64, 1u32..=u32::MAX],
+        colour in prop::sample::select(vec![0u8, 2, 3, 4, 6]),
+        depth in prop::sample::select(vec![1u8, 8, 16]),
+        rows in 0usize..64,
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("t.png"), forged_png(width, height, colour, depth, rows)).unwrap();
+        match load_textured(dir.path(), "t.png") {
+            Ok(s) => prop_assert!(s.image_bytes <= BUDGET),
+            Err(e) => prop_assert!(e.contains("t.png"), "{}", e),
+        }
+    }
+
+    /// JPEGs whose frame header declares another size, or cut short: a
+    /// cut file that still decodes is named in a warning.
+    #[test]
+    fn forged_and_truncated_jpegs_load_or_are_refused(
+        width in prop_oneof![1u16..64, any::<u16>()],
+        height in prop_oneof![1u16..64, any::<u16>()],
+        cut in 0.0f64..1.0,
+    ) {
+        let mut bytes = jpeg(24, 16);
+        let sof = bytes.windows(2).position(|w| w == [0xFF, 0xC0]).unwrap();
+        bytes[sof + 5..sof + 7].copy_from_slice(&height.to_be_bytes());
+        bytes[sof + 7..sof + 9].copy_from_slice(&width.to_be_bytes());
+        let keep = sof + 9 + ((bytes.len() - sof - 9) as f64 * cut) as usize;
+        bytes.truncate(keep);
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("t.jpg"), &bytes).unwrap();
+        match load_textured(dir.path(), "t.jpg") {
+            Ok(s) => prop_assert!(
+                s.warnings.iter().any(|w| w.contains("t.jpg") && w.contains("truncated")),
+                "{:?}", s.warnings
+            ),
+            Err(e) => prop_assert!(e.contains("t.jpg"), "{}", e),
+        }
+    }
+
+    /// EXR files whose data window declares any size are read within the
+    /// budget or refused: `prism info` and `merge` read files this way.
+    #[test]
+    fn forged_exr_sizes_are_read_or_refused(
+        window in proptest::array::uniform4(prop_oneof![-4i32..64, any::<i32>()]),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.spectral.exr");
+        std::fs::write(&path, small_spectral_exr()).unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        let key = b"dataWindow\0box2i\0";
+        let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+        for (k, v) in window.iter().enumerate() {
+            bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let (read, _) = prism::memory::tallying(Some(BUDGET), || {
+            prism::film::spectral_exr::read(&path)
+        });
+        if let Ok(img) = read {
+            prop_assert!((img.width * img.height) as u64 * 4 * 8 <= BUDGET);
+        }
+    }
+
+    /// Sample ranges anywhere in u32, up to its last index: they finish,
+    /// and every pixel gets exactly the range's samples.
+    #[test]
+    fn sample_ranges_near_the_end_of_u32_finish(
+        back in 1u32..200,
+        len in 1u32..40,
+    ) {
+        let scene = prism::scene::load_str(
+            &VALID.replace("resolution = [8, 8]", "resolution = [1, 1]"),
+            std::path::Path::new("."),
+        ).unwrap();
+        // END is exclusive: the last range ends at u32::MAX itself.
+        let end = u32::MAX - (back - 1);
+        let start = end - len;
+        let options = prism::render::RenderOptions {
+            threads: Some(1),
+            progress: false,
+            samples: start..end,
+            ..prism::render::RenderOptions::new(&scene)
+        };
+        let (film, stats) = prism::render::render(&scene, &options).unwrap();
+        prop_assert_eq!(film.sums(0, 0).samples, (end - start) as u64);
+        prop_assert_eq!(stats.samples, (end - start) as u64);
+    }
+}
+
+/// A 6×4 spectral EXR of prism's, to forge.
+fn small_spectral_exr() -> Vec<u8> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.spectral.exr");
+    let n = 6 * 4;
+    let img = prism::film::spectral_exr::SpectralImage {
+        width: 6,
+        height: 4,
+        wavelengths: vec![500.0, 600.0],
+        names: vec![
+            prism::film::spectral_exr::channel_name(500.0),
+            prism::film::spectral_exr::channel_name(600.0),
+        ],
+        spectral: vec![vec![0.5; n], vec![0.25; n]],
+        other: [("R", 0.1), ("G", 0.2), ("B", 0.3)]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), vec![v; n]))
+            .collect(),
+        attributes: Default::default(),
+    };
+    prism::film::spectral_exr::write_image(img, &path).unwrap();
+    std::fs::read(path).unwrap()
+}
+
+/// A FIFO in place of each kind of input file: refused at once (a read
+/// would block forever), naming the file.
+#[test]
+fn special_files_in_place_of_any_input_are_refused_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fifo = |name: &str| {
+        let ok = std::process::Command::new("mkfifo")
+            .arg(d.join(name))
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "mkfifo {name}");
+    };
+    for name in ["scene.toml", "m.obj", "t.png", "s.csv", "sky.exr", "b.bin"] {
+        fifo(name);
+    }
+    std::fs::write(
+        d.join("lib.obj"),
+        "mtllib fifo.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    fifo("fifo.mtl");
+    std::fs::write(
+        d.join("m.gltf"),
+        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"b.bin","byteLength":12}],"bufferViews":[{"buffer":0,"byteLength":12}],
+            "accessors":[{"bufferView":0,"componentType":5126,"count":1,"type":"VEC3","min":[0,0,0],"max":[0,0,0]}],
+            "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}"#,
+    )
+    .unwrap();
+    let camera =
+        "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\n";
+    let quad =
+        "[[shape]]\ntype = \"quad\"\nvertices = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]\n";
+    let cases = [
+        ("m.obj", format!("{camera}[[shape]]\ntype = \"obj\"\nfile = \"m.obj\"\n")),
+        ("fifo.mtl", format!("{camera}[[shape]]\ntype = \"obj\"\nfile = \"lib.obj\"\n")),
+        ("b.bin", format!("{camera}[[shape]]\ntype = \"gltf\"\nfile = \"m.gltf\"\n")),
+        ("t.png", format!("{camera}[materials.t]\ntype = \"diffuse\"\ntexture = \"t.png\"\n{quad}material = \"t\"\n")),
+        ("s.csv", format!("{camera}[spectra]\nlamp = {{ file = \"s.csv\" }}\n{quad}emission = \"lamp\"\n")),
+        ("sky.exr", format!("{camera}[environment]\nfile = \"sky.exr\"\n{quad}")),
+    ];
+    // Each load's error, or its warnings (a material library is optional:
+    // one that cannot be read is named in a warning).
+    let message = |r: Result<prism::scene::Scene, prism::scene::SceneError>| match r {
+        Ok(s) => s.warnings.join("; "),
+        Err(e) => e.to_string(),
+    };
+    let (sender, receiver) = std::sync::mpsc::channel();
+    let base = d.to_path_buf();
+    std::thread::spawn(move || {
+        for (file, scene) in cases {
+            sender
+                .send((file, message(prism::scene::load_str(&scene, &base))))
+                .unwrap();
+        }
+        let r = prism::scene::load(&base.join("scene.toml"));
+        sender.send(("scene.toml", message(r))).unwrap();
+    });
+    for _ in 0..7 {
+        let (file, e) = receiver
+            .recv_timeout(std::time::Duration::from_secs(20))
+            .expect("a load blocked on a FIFO");
+        assert!(
+            e.contains(file) && e.contains("not a regular file"),
+            "{file}: {e}"
+        );
+    }
+}

@@ -320,7 +320,7 @@ fn a_part_whose_samples_lie_outside_its_claimed_region_is_refused() {
         "20,0,40,24".to_string(),
     );
     let forged_path = dir.path().join("forged.spectral.exr");
-    spectral_exr::write_image(&forged, &forged_path).unwrap();
+    spectral_exr::write_image(forged, &forged_path).unwrap();
     let out = prism(&[
         "merge",
         "-o",

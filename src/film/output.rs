@@ -242,6 +242,8 @@ pub fn write_rgb_png(
 /// Reads a linear RGB OpenEXR (the first layer's R, G, B).
 pub fn read_rgb_exr(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
     use exr::prelude::*;
+    // 12 bytes of ours a pixel, counted per channel (three or four).
+    super::spectral_exr::check_declared_size(path, 4)?;
     let image = read_first_rgba_layer_from_file(
         path,
         |resolution, _| {

@@ -149,22 +149,21 @@ pub fn write(
     path: &Path,
     attributes: &[(&str, String)],
 ) -> Result<()> {
-    write_image(&SpectralImage::from_film(film, colour, attributes), path)
+    write_image(SpectralImage::from_film(film, colour, attributes), path)
 }
 
 /// Writes a spectral image as float32 channels with its text attributes.
-pub fn write_image(img: &SpectralImage, path: &Path) -> Result<()> {
+/// The planes move into the encoder: a film's worth of memory is not
+/// copied once more while writing.
+pub fn write_image(img: SpectralImage, path: &Path) -> Result<()> {
     let mut channels: Vec<AnyChannel<FlatSamples>> = img
         .names
         .iter()
-        .zip(&img.spectral)
-        .map(|(name, plane)| AnyChannel::new(name.as_str(), FlatSamples::F32(plane.clone())))
+        .zip(img.spectral)
+        .map(|(name, plane)| AnyChannel::new(name.as_str(), FlatSamples::F32(plane)))
         .collect();
-    for (name, plane) in &img.other {
-        channels.push(AnyChannel::new(
-            name.as_str(),
-            FlatSamples::F32(plane.clone()),
-        ));
+    for (name, plane) in img.other {
+        channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(plane)));
     }
     // EXR text is ASCII-safe here: anything else (say, in a file name) becomes '?'.
     let text = |s: &str| {
@@ -208,14 +207,30 @@ pub fn write_image(img: &SpectralImage, path: &Path) -> Result<()> {
 /// every run; sorted, the same image gives the same bytes. The header keeps
 /// its size, so the offset table after it stays right.
 fn sort_header_attributes(path: &Path) -> Result<()> {
-    let mut bytes =
-        std::fs::read(path).with_context(|| format!("cannot read back {}", path.display()))?;
+    use std::io::{Read, Seek, SeekFrom, Write};
+    let cannot = || format!("cannot read back {}", path.display());
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(path)
+        .with_context(cannot)?;
+    // The header alone (channel list and attributes), not the pixels.
+    let mut bytes = Vec::new();
+    (&mut file)
+        .take(MAX_HEADER_BYTES)
+        .read_to_end(&mut bytes)
+        .with_context(cannot)?;
     let bad = || anyhow::anyhow!("{}: unexpected EXR header layout", path.display());
     const START: usize = 8; // magic number and version
     let mut at = START;
     let mut attributes: Vec<(&[u8], &[u8])> = Vec::new();
     let field = |at: usize| -> Result<usize> {
-        let len = bytes[at..].iter().position(|&b| b == 0).ok_or_else(bad)?;
+        let len = bytes
+            .get(at..)
+            .ok_or_else(bad)?
+            .iter()
+            .position(|&b| b == 0)
+            .ok_or_else(bad)?;
         Ok(at + len + 1)
     };
     while *bytes.get(at).ok_or_else(bad)? != 0 {
@@ -238,13 +253,56 @@ fn sort_header_attributes(path: &Path) -> Result<()> {
         .iter()
         .flat_map(|a| a.1.iter().copied())
         .collect();
-    bytes[START..at].copy_from_slice(&sorted);
-    std::fs::write(path, &bytes).with_context(|| format!("cannot write {}", path.display()))
+    file.seek(SeekFrom::Start(START as u64))
+        .and_then(|_| file.write_all(&sorted))
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// More header than any file of ours has (4096 channels of 30 bytes, and
+/// the attributes).
+const MAX_HEADER_BYTES: u64 = 4 << 20;
+
+/// Checks, from its header alone, that reading the EXR at `path` fits the
+/// memory budget: each sample as declared plus `scratch` bytes a sample
+/// (the caller's own copies). Returns the declared pixel count. A 23 KB
+/// file may declare 32768² pixels; it is refused here, before the decoder
+/// allocates them. Only regular files are opened (a FIFO would block).
+pub fn check_declared_size(path: &Path, scratch: u64) -> Result<u64> {
+    crate::input::regular_file_size(path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .with_context(|| format!("cannot read {} as OpenEXR", path.display()))?;
+    let (mut pixels, mut bytes) = (0u64, 0u64);
+    for header in &meta.headers {
+        // The largest resolution level is all that is read.
+        let size = header.layer_size;
+        let area = (size.width() as u64).saturating_mul(size.height() as u64);
+        let per_pixel: u64 = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64 + scratch)
+            .sum();
+        pixels = pixels.saturating_add(area);
+        bytes = bytes.saturating_add(area.saturating_mul(per_pixel));
+    }
+    let what = format!(
+        "{}: its pixels ({pixels} declared, in {} channels)",
+        path.display(),
+        meta.headers
+            .iter()
+            .map(|h| h.channels.list.len())
+            .sum::<usize>()
+    );
+    crate::memory::check(&what, bytes).map_err(anyhow::Error::msg)?;
+    Ok(pixels)
 }
 
 /// Reads any single-layer EXR, sorting spectral channels by wavelength
 /// (never by name: `S0.1,0um` comes after `S0.900nm`).
 pub fn read(path: &Path) -> Result<SpectralImage> {
+    // Each sample is converted to an f32 of ours.
+    check_declared_size(path, 4)?;
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()

@@ -264,6 +264,25 @@ impl Integrator {
         }
     }
 
+    /// The longest path it traces, in surface interactions.
+    pub fn max_depth(&self) -> u32 {
+        match self {
+            Integrator::Path(p) => p.max_depth,
+            Integrator::Light(l) => l.max_depth,
+            Integrator::Bdpt(b) => b.max_depth,
+            Integrator::Sppm(p) => p.max_depth,
+        }
+    }
+
+    /// Bytes of what `prepare` makes for one sample index, estimated: the
+    /// photon map of an iteration.
+    pub fn prepared_bytes(&self, scene: &Scene) -> u64 {
+        match self {
+            Integrator::Sppm(p) => p.map_bytes(scene),
+            _ => 0,
+        }
+    }
+
     /// Whether `sample` adds to pixels other than its own. Such renders
     /// must cover the whole film with the same number of samples per pixel.
     pub fn splats(&self) -> bool {

@@ -58,7 +58,8 @@ pub struct Sppm {
     /// Half-width of the wavelength kernel in the first iteration (nm).
     pub spectral_radius: f32,
     /// The default photon count, worked out once per scene.
-    default_photons: OnceLock<u32>,
+    /// Photons stored per photon emitted, measured by a pilot.
+    stored_per_photon: OnceLock<f64>,
 }
 
 impl Sppm {
@@ -77,7 +78,7 @@ impl Sppm {
             radius,
             alpha,
             spectral_radius,
-            default_photons: OnceLock::new(),
+            stored_per_photon: OnceLock::new(),
         }
     }
 }
@@ -95,6 +96,9 @@ impl PartialEq for Sppm {
             && (self.alpha, self.spectral_radius) == (other.alpha, other.spectral_radius)
     }
 }
+
+/// The bytes of a stored photon (for memory estimates).
+const PHOTON_BYTES: u64 = std::mem::size_of::<Photon>() as u64;
 
 /// A photon that landed on a diffuse surface.
 #[derive(Clone, Copy, Debug)]
@@ -206,32 +210,40 @@ const PHOTON_ROW: u32 = u32::MAX;
 const PILOT_SEED: u64 = 0x9107_0000;
 
 impl Sppm {
-    /// Photons per iteration: the given number, or `default_photons`.
+    /// Photons per iteration: the given number, or enough that about one
+    /// is stored per pixel in an iteration, within [2¹⁴, 2²²].
     pub fn photons_per_iteration(&self, scene: &Scene) -> u32 {
         self.photons.unwrap_or_else(|| {
-            *self
-                .default_photons
-                .get_or_init(|| self.default_photons(scene))
+            let pixels = (scene.film.width as f64) * (scene.film.height as f64);
+            let per_photon = self.stored_per_photon(scene).max(1e-4);
+            (pixels / per_photon).clamp((1u32 << 14) as f64, (1u32 << 22) as f64) as u32
         })
     }
 
-    /// Enough photons that about one is stored per pixel in an iteration,
-    /// within [2¹⁴, 2²²]: a pilot of 2¹⁴ photons (a fixed stream, so the
-    /// count is the same for every render of the scene) measures how many
-    /// a photon leaves on diffuse surfaces. A scene lit through a small
-    /// prism stores one photon in a hundred; a closed room several per
-    /// photon.
-    fn default_photons(&self, scene: &Scene) -> u32 {
-        const PILOT: u32 = 1 << 14;
-        let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
-        for j in 0..PILOT {
-            let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
-            self.trace_photon(scene, &mut sampler, &mut stored, &mut counters);
-            stored.clear();
-        }
-        let pixels = (scene.film.width as f64) * (scene.film.height as f64);
-        let per_photon = (counters.photons_stored as f64 / PILOT as f64).max(1e-4);
-        (pixels / per_photon).clamp((1u32 << 14) as f64, (1u32 << 22) as f64) as u32
+    /// The bytes an iteration's photon map takes at its peak, estimated
+    /// from the pilot: each stored photon is copied once from its batch
+    /// and filed in the grid (a bucket start, an index and a cursor).
+    pub fn map_bytes(&self, scene: &Scene) -> u64 {
+        let stored = self.photons_per_iteration(scene) as f64 * self.stored_per_photon(scene);
+        // Batches grow by doubling: up to twice their photons' bytes.
+        (stored * (3 * PHOTON_BYTES + 40) as f64) as u64
+    }
+
+    /// How many photons a photon leaves on diffuse surfaces, measured by a
+    /// pilot of 2¹⁴ photons (a fixed stream, so the count is the same for
+    /// every render of the scene). A scene lit through a small prism
+    /// stores one photon in a hundred; a closed room several per photon.
+    fn stored_per_photon(&self, scene: &Scene) -> f64 {
+        *self.stored_per_photon.get_or_init(|| {
+            const PILOT: u32 = 1 << 14;
+            let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
+            for j in 0..PILOT {
+                let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
+                self.trace_photon(scene, &mut sampler, &mut stored, &mut counters);
+                stored.clear();
+            }
+            counters.photons_stored as f64 / PILOT as f64
+        })
     }
 
     /// The first iteration's radius: the given one, or four pixels' width

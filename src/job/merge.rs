@@ -42,7 +42,6 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
     let stem = output_stem(Path::new(""), Some(job.output.clone()));
     check_writable(&stem)?;
     let spectral = suffixed(&stem, "spectral.exr");
-    spectral_exr::write_image(&merged, &spectral)?;
     // merge() refuses parts without R, G and B.
     let (r, g, b) = (&merged.other["R"], &merged.other["G"], &merged.other["B"]);
     let rgb: Vec<glam::Vec3> = (0..merged.width * merged.height)
@@ -57,25 +56,28 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
         ),
         None => Some(ColourSpace::SrgbLinear),
     };
-    write_rgb_exr_in(&rgb, w, h, space, &exr)?;
     let (to_display, settings) = display::from_attributes(&merged.attributes, job.exposure)?;
-    let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
-    display::write_png(&display_rgb, w, h, &png, &settings)?;
     let uncovered = merged.other[spectral_exr::SAMPLE_COUNT]
         .iter()
         .filter(|&&c| c == 0.0)
         .count();
+    let samples = merged.attributes[ATTR_SAMPLES].clone();
+    // The merged image goes into the file without a copy of its planes.
+    spectral_exr::write_image(merged, &spectral)?;
+    write_rgb_exr_in(&rgb, w, h, space, &exr)?;
+    let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
+    display::write_png(&display_rgb, w, h, &png, &settings)?;
     if uncovered > 0 {
         eprintln!(
             "warning: {uncovered} of {} pixels are in no part: they are black",
-            merged.width * merged.height
+            w as u64 * h as u64
         );
     }
     eprintln!(
         "merged {} part{} (samples {}): wrote {}, {} and {}",
         job.parts.len(),
         if job.parts.len() == 1 { "" } else { "s" },
-        merged.attributes[ATTR_SAMPLES],
+        samples,
         spectral.display(),
         exr.display(),
         png.display()

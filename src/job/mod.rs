@@ -2,6 +2,7 @@
 //! partial renders, describe an EXR. `main.rs` parses flags and calls these.
 
 mod info;
+mod interrupt;
 mod merge;
 mod render;
 mod tev;
@@ -12,6 +13,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 pub use info::describe;
+pub use interrupt::{Interrupts, Reaction};
 pub use merge::{merge_files, MergeJob};
 pub use render::{render_files, RenderJob, RenderOutcome};
 
@@ -95,18 +97,6 @@ fn temporary_pid(file: &str, name: &str) -> Option<u32> {
     let (pid, ext) = rest.strip_prefix(".partial-")?.split_once('.')?;
     matches!(ext, "exr" | "png").then_some(())?;
     pid.parse().ok()
-}
-
-/// A byte count for people: KiB, MiB or GiB.
-pub fn human_bytes(bytes: usize) -> String {
-    let b = bytes as f64;
-    if b < (1 << 20) as f64 {
-        format!("{:.1} KiB", b / 1024.0)
-    } else if b < (1 << 30) as f64 {
-        format!("{:.1} MiB", b / (1 << 20) as f64)
-    } else {
-        format!("{:.2} GiB", b / (1 << 30) as f64)
-    }
 }
 
 /// Fails early, before any rendering, if the output folder cannot take files.

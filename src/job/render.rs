@@ -1,16 +1,16 @@
 //! `prism render`: load a scene (with the command line's overrides), render
 //! it, write NAME.exr, NAME.png and NAME.spectral.exr.
 
+use super::Interrupts;
 use std::ops::Range;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
 
 use super::tev::Tev;
-use super::{check_writable, human_bytes, output_stem, suffixed};
+use super::{check_writable, output_stem, suffixed};
 use crate::film::display::{
     matrix_text, rgb_to_display, ATTR_DISPLAY, ATTR_GAMUT, ATTR_PNG_BITS, ATTR_RGB_TO_DISPLAY,
 };
@@ -18,8 +18,9 @@ use crate::film::{output, spectral_exr};
 use crate::film::{ColourTransform, Film, FilmSettings};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
+use crate::memory::for_people;
 use crate::merge::{ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
-use crate::render::{render, PassHook, RenderOptions, Stop};
+use crate::render::{memory_estimate, render, PassHook, RenderOptions, Stop};
 use crate::scene::{self, Overrides};
 
 pub struct RenderJob {
@@ -38,7 +39,7 @@ pub struct RenderJob {
     pub seed: Option<u64>,
     pub progress: bool,
     /// Set (by a signal handler) to stop early and write what exists.
-    pub cancel: Arc<AtomicBool>,
+    pub interrupts: Arc<Interrupts>,
     /// Stop when this much time is spent (`--time`).
     pub time_budget: Option<Duration>,
     /// Stop when the estimated relative MSE falls below this (`--target-error`).
@@ -137,7 +138,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
     options.threads = job.threads;
     options.progress = job.progress;
-    options.cancel = Some(job.cancel.clone());
+    options.cancel = Some(job.interrupts.stop_flag());
     options.time_budget = job.time_budget;
     options.target_error = job.target_error;
     options.log_every = job.log_every;
@@ -147,6 +148,18 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             bail!("--target-error must be a positive relative MSE, such as 0.01");
         }
     }
+
+    let estimate = memory_estimate(&scene, &options);
+    let parts = format!(
+        "loading {}; then scene {}, film {}, passes {}, writing {}",
+        for_people(estimate.loading),
+        for_people(estimate.scene),
+        for_people(estimate.film),
+        for_people(estimate.passes),
+        for_people(estimate.writing)
+    );
+    crate::memory::check("the render", estimate.total())
+        .map_err(|e| anyhow::anyhow!("{e} ({parts}): use fewer pixels or spectral buckets"))?;
 
     let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
@@ -195,11 +208,15 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         scene.triangle_count(),
         scene.degenerate_triangles,
         scene.bvh().node_count(),
-        human_bytes(scene.bvh().size_bytes()),
+        for_people(scene.bvh().size_bytes() as u64),
         scene.lights.len(),
         film.width,
         film.height,
         scene.integrator.name()
+    );
+    eprintln!(
+        "memory: about {} at the peak ({parts})",
+        for_people(estimate.total())
     );
     if let Integrator::Sppm(p) = &scene.integrator {
         eprintln!(
@@ -273,6 +290,10 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
     let exr = suffixed(&stem, "exr");
     let png = suffixed(&stem, "png");
+    if !job.interrupts.begin_writing() {
+        // Interrupted twice: the signal handler is ending the process.
+        return Ok(RenderOutcome { interrupted: true });
+    }
     // The set of files replaces an earlier render's all at once, or not at
     // all: never an .exr of this render beside a .spectral.exr of another.
     output::as_one_set(|| {

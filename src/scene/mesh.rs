@@ -27,6 +27,24 @@ impl Mesh {
         }
     }
 
+    /// The bytes this mesh's arrays hold.
+    pub fn heap_bytes(&self) -> u64 {
+        let len = |n: usize, each: usize| (n * each) as u64;
+        len(self.positions.len(), 12)
+            + self.normals.as_ref().map_or(0, |n| len(n.len(), 12))
+            + self.uvs.as_ref().map_or(0, |u| len(u.len(), 8))
+            + self.tangents.as_ref().map_or(0, |t| len(t.len(), 16))
+            + len(self.indices.len(), 12)
+    }
+
+    /// The bytes [`Mesh::sphere`] will hold, known before it is built.
+    pub fn sphere_bytes(segments: u32) -> u64 {
+        let segments = segments.max(3) as u64;
+        let rings = (segments / 2).max(2);
+        let vertices = (segments + 1) * (rings + 1);
+        vertices * 24 + 2 * segments * rings * 12
+    }
+
     /// A latitude-longitude sphere with outward normals (front face outside).
     pub fn sphere(center: Vec3, radius: f32, segments: u32, smooth: bool) -> Mesh {
         let segments = segments.max(3);

@@ -63,6 +63,8 @@ pub struct AssetCamera {
 #[derive(Default)]
 pub struct TextureCache {
     textures: HashMap<(String, Encoding, [Wrap; 2], Filter), Arc<Texture>>,
+    /// Problems found in images that still decoded (truncated files).
+    pub warnings: Vec<String>,
 }
 
 impl TextureCache {
@@ -81,7 +83,14 @@ impl TextureCache {
         if let Some(t) = self.textures.get(&k) {
             return Ok(t.clone());
         }
-        let mut texture = Texture::decode(&bytes()?, encoding)?;
+        let bytes = bytes()?;
+        if crate::texture::jpeg_is_truncated(&bytes) {
+            self.warnings.push(format!(
+                "{}: the JPEG stops before its end-of-image marker (a truncated file?): what is missing decodes as grey",
+                k.0
+            ));
+        }
+        let mut texture = Texture::decode(&bytes, encoding)?;
         texture.wrap = wrap;
         texture.filter = filter;
         let texture = Arc::new(texture);

@@ -13,8 +13,6 @@ use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 
 /// Largest image side accepted.
 const MAX_RESOLUTION: u32 = 32_768;
-/// Largest film memory accepted (pixel sums and spectral buckets).
-const MAX_FILM_BYTES: u64 = 16 << 30;
 
 impl Loader {
     pub(super) fn film(&self, file: &SceneFile) -> Result<FilmSettings, SceneError> {
@@ -129,21 +127,22 @@ impl Loader {
     }
 }
 
-/// Checks that a film fits: at most 32768 pixels a side and 16 GiB of sums.
+/// Checks that a film fits: at most 32768 pixels a side, and its sums and
+/// output buffers within the memory budget (the render checks the whole
+/// estimate again, with the scene and the passes, before it starts).
 pub fn check_film_size(width: u32, height: u32, buckets: u32) -> Result<(), String> {
     if width > MAX_RESOLUTION || height > MAX_RESOLUTION {
         return Err(format!(
             "`film.resolution` [{width}, {height}] is larger than {MAX_RESOLUTION} pixels on a side"
         ));
     }
-    let film_bytes = width as u64 * height as u64 * (48 + 4 * buckets as u64);
-    if film_bytes > MAX_FILM_BYTES {
-        return Err(format!(
-            "the film ({width}x{height} pixels, {buckets} spectral buckets) would need {:.1} GiB: use fewer pixels or buckets",
-            film_bytes as f64 / (1u64 << 30) as f64
-        ));
-    }
-    Ok(())
+    let (film, writing) =
+        crate::render::film_bytes(width as u64 * height as u64, buckets, true, false);
+    crate::memory::check(
+        &format!("the film ({width}x{height} pixels, {buckets} spectral buckets)"),
+        film + writing,
+    )
+    .map_err(|e| format!("{e}: use fewer pixels or buckets"))
 }
 
 /// Checks a film's spectral bucket layout; the message starts with the key.

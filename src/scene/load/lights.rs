@@ -288,11 +288,18 @@ fn read_radiance_image(path: &std::path::Path) -> Result<(u32, u32, Vec<Vec3>), 
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
     let (w, h, rgb) = if ext == "exr" {
-        crate::film::output::read_rgb_exr(path).map_err(|e| format!("{e:#}"))?
+        let (w, h, rgb) = crate::film::output::read_rgb_exr(path).map_err(|e| format!("{e:#}"))?;
+        crate::memory::hold(
+            &format!("{name}: the environment map ({w}x{h} texels)"),
+            w as u64 * h as u64 * 24,
+        )?;
+        (w, h, rgb)
     } else {
         let bytes = crate::input::read(path).map_err(|e| format!("{name}: {e}"))?;
+        // 12 bytes a texel while converting; kept: 12 of radiance and the
+        // sampling tables.
         let image =
-            image::load_from_memory(&bytes).map_err(|e| format!("{name}: cannot decode: {e}"))?;
+            crate::texture::decode_image(&bytes, 12, 24).map_err(|e| format!("{name}: {e}"))?;
         let linear = ext == "hdr";
         let (w, h) = (image.width(), image.height());
         let rgb = image

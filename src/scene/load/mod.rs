@@ -10,7 +10,7 @@ mod media;
 mod shapes;
 mod spectra;
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
@@ -132,6 +132,9 @@ struct Loader {
     cutouts: RefCell<HashMap<u32, Cutout>>,
     /// Keys set by the command line, and the flag that set each.
     overridden: RefCell<Vec<(&'static str, &'static str)>>,
+    /// Bytes of meshes counted against the memory budget: they are gone
+    /// once the scene is built.
+    meshes_held: Cell<u64>,
 }
 
 /// Where an asset's materials went in the scene's list, per asset file.
@@ -147,6 +150,7 @@ impl Loader {
             warnings: RefCell::default(),
             cutouts: RefCell::default(),
             overridden: RefCell::default(),
+            meshes_held: Cell::new(0),
         }
     }
 
@@ -187,7 +191,16 @@ impl Loader {
         self.warnings.borrow_mut().push(message.into());
     }
 
+    /// Loads the scene, tallying what its inputs hold against the memory
+    /// budget; the scene keeps the bytes of its images.
     fn load(&self, text: &str, overrides: &Overrides) -> Result<Scene, SceneError> {
+        let (scene, held) = crate::memory::tallying(None, || self.load_scene(text, overrides));
+        let mut scene = scene?;
+        scene.image_bytes = held.saturating_sub(self.meshes_held.get());
+        Ok(scene)
+    }
+
+    fn load_scene(&self, text: &str, overrides: &Overrides) -> Result<Scene, SceneError> {
         let value: toml::Table =
             toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
         if let Some(key) = first_non_finite(&toml::Value::Table(value), "") {
@@ -242,6 +255,14 @@ impl Loader {
             Some(spec) => Some(self.medium(spec, &file, "medium")?),
             None => None,
         };
+        let triangles: u64 = shapes.iter().map(|s| s.mesh.indices.len() as u64).sum();
+        let build = triangles * crate::scene::BUILD_BYTES_PER_TRIANGLE;
+        crate::memory::check(
+            &format!("building the scene's {triangles} triangles"),
+            build,
+        )
+        .map_err(|e| self.error(e))?;
+        let load_peak = crate::memory::held() + build;
         let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights)
             .with_world_medium(world_medium)
             .with_cutouts(self.cutouts.take());
@@ -251,7 +272,10 @@ impl Loader {
                  or none that emits: the image will be black",
             );
         }
-        scene.warnings = self.warnings.take();
+        let mut warnings = self.textures.borrow_mut().warnings.split_off(0);
+        warnings.append(&mut self.warnings.take());
+        scene.warnings = warnings;
+        scene.load_peak_bytes = load_peak;
         Ok(scene)
     }
 }

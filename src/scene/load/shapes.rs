@@ -72,6 +72,7 @@ impl Loader {
                         self.asset_pieces(shape, &key, &overrides, materials, &mut slots)?
                     {
                         self.place(&mut mesh, shape, &key)?;
+                        self.hold_mesh(&key, &mesh)?;
                         shapes.push(ShapeInstance {
                             mesh,
                             material: material.unwrap_or(m.unwrap_or(default_material)),
@@ -82,6 +83,7 @@ impl Loader {
                 ShapeKind::Quad | ShapeKind::Sphere => {
                     let mut mesh = self.mesh(shape, &key)?;
                     self.place(&mut mesh, shape, &key)?;
+                    self.hold_mesh(&key, &mesh)?;
                     shapes.push(ShapeInstance {
                         mesh,
                         material: material.unwrap_or(default_material),
@@ -91,6 +93,14 @@ impl Loader {
             }
         }
         Ok(shapes)
+    }
+
+    /// Counts a mesh against the memory budget (until the scene is built).
+    fn hold_mesh(&self, key: &str, mesh: &Mesh) -> Result<(), SceneError> {
+        let bytes = mesh.heap_bytes();
+        crate::memory::hold(&format!("`{key}`'s mesh"), bytes).map_err(|e| self.error(e))?;
+        self.meshes_held.set(self.meshes_held.get() + bytes);
+        Ok(())
     }
 
     /// A shape's `materials` table: asset material name → scene material.
@@ -140,6 +150,9 @@ impl Loader {
                 path.display(),
                 asset.ignored.join(", ")
             ));
+        }
+        for piece in &asset.pieces {
+            self.hold_mesh(key, &piece.mesh)?;
         }
         let asset = Rc::new(asset);
         self.assets
@@ -315,6 +328,11 @@ impl Loader {
                         "`{key}.segments` must be between 3 and {MAX_SPHERE_SEGMENTS}, found {segments}"
                     )));
                 }
+                crate::memory::check(
+                    &format!("`{key}` ({segments} segments)"),
+                    Mesh::sphere_bytes(segments),
+                )
+                .map_err(|e| self.error(e))?;
                 Mesh::sphere(
                     Vec3::from(shape.center.unwrap_or([0.0; 3])),
                     r,
