@@ -89,6 +89,12 @@ pub fn parse_channel_name(name: &str) -> Option<f64> {
 pub const SAMPLE_COUNT: &str = "sampleCount";
 
 impl SpectralImage {
+    /// The bytes its planes hold.
+    pub fn bytes(&self) -> u64 {
+        let planes = self.spectral.len() + self.other.len();
+        (planes * self.width * self.height * 4) as u64
+    }
+
     /// The film as a spectral image: bucket means, the RGB preview (in
     /// `colour`'s space, named by the `prismColourSpace` attribute and the
     /// chromaticities), per-pixel sample counts, and the given text

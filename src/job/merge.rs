@@ -25,11 +25,26 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
     if !job.exposure.is_finite() {
         anyhow::bail!("--exposure must be a finite number of stops");
     }
-    let images = job
-        .parts
-        .iter()
-        .map(|p| Ok((p.clone(), spectral_exr::read(p)?)))
-        .collect::<Result<Vec<_>>>()?;
+    // Every part is held at once: each is checked with those read before it.
+    let (images, _) = crate::memory::tallying(None, || {
+        job.parts
+            .iter()
+            .map(|p| {
+                let img = spectral_exr::read(p)?;
+                crate::memory::hold(&p.display().to_string(), img.bytes())
+                    .map_err(anyhow::Error::msg)?;
+                Ok((p.clone(), img))
+            })
+            .collect::<Result<Vec<_>>>()
+    });
+    let images = images?;
+    // The merged image is one more of the size of the largest part.
+    let sizes = images.iter().map(|(_, img)| img.bytes());
+    crate::memory::check(
+        &format!("merging {} parts", images.len()),
+        sizes.clone().sum::<u64>() + sizes.max().unwrap_or(0),
+    )
+    .map_err(anyhow::Error::msg)?;
     for (p, img) in &images {
         if img.attributes.contains_key("prismInterrupted") {
             eprintln!(
