@@ -5,6 +5,7 @@
 
 pub mod gltf;
 pub mod obj;
+mod obj_text;
 mod polygon;
 
 use std::collections::HashMap;

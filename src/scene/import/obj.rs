@@ -1,4 +1,5 @@
-//! Wavefront OBJ with MTL materials (tobj). Polygons of any size are
+//! Wavefront OBJ (read in parallel by `obj_text`) with MTL materials
+//! (tobj). Polygons of any size are
 //! triangulated in their own plane by ear clipping (concave ones too),
 //! negative indices resolved, objects and groups split by
 //! material; a missing or broken .mtl is a warning (the scene's default
@@ -29,6 +30,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::{polygon, Asset, AssetMaterial, Piece, TextureCache};
 use crate::material::{Cutout, CutoutMode, Ior, Material, PbrMaterial, Reflectance};
@@ -48,63 +50,36 @@ fn roughness_from_phong(ns: f32) -> f32 {
 pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<Asset, String> {
     let bytes = crate::input::read(path)?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    // Polygons are triangulated here, in their own plane (tobj fans them,
-    // which fills concave faces). Vertices with texture coordinates or
-    // normals are merged per index triple (a hash map in tobj); files of
-    // positions alone, as scans are, skip that. (Any "vt" or "vn" in the
-    // text counts, comments included: a false alarm only costs the merge.)
-    let has_attributes = bytes.windows(2).any(|w| w == b"vt" || w == b"vn");
-    let options = tobj::LoadOptions {
-        triangulate: false,
-        single_index: has_attributes,
-        ..Default::default()
-    };
-    // tobj's material loader is a `Fn`: note the library's path, and why
-    // it could not be read, in cells.
-    let mtl_path: std::cell::RefCell<Option<PathBuf>> = Default::default();
-    let mtl_unreadable: std::cell::RefCell<Option<String>> = Default::default();
-    let (models, materials) =
-        tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |p| {
-            let full = base.join(p);
-            *mtl_path.borrow_mut() = Some(full.clone());
-            match crate::input::read(&full) {
-                Ok(text) => tobj::load_mtl_buf(&mut std::io::Cursor::new(text)),
-                Err(e) => {
-                    *mtl_unreadable.borrow_mut() = Some(e);
-                    Err(tobj::LoadError::OpenFileFailed)
+    // The geometry is read in parallel (obj_text); the material libraries
+    // by tobj.
+    let geometry = super::obj_text::parse(&bytes)?;
+    drop(bytes);
+    let mut asset = Asset::default();
+    let mut mtl_materials: Vec<tobj::Material> = Vec::new();
+    let mut by_name: std::collections::HashMap<String, usize> = Default::default();
+    let mut mtl_dir = base.clone();
+    for (k, library) in geometry.material_libraries.iter().enumerate() {
+        let full = base.join(library);
+        if k == 0 {
+            mtl_dir = full.parent().unwrap_or(&base).to_path_buf();
+        }
+        let read = crate::input::read(&full).and_then(|text| {
+            tobj::load_mtl_buf(&mut std::io::Cursor::new(text))
+                .map_err(|e| format!("cannot be read ({e})"))
+        });
+        match read {
+            Ok((materials, _)) => {
+                for m in materials {
+                    by_name.insert(m.name.clone(), mtl_materials.len());
+                    mtl_materials.push(m);
                 }
             }
-        })
-        .map_err(|e| format!("cannot read OBJ: {e}"))?;
-    let mtl_unreadable = mtl_unreadable.into_inner();
-
-    let mtl_path = mtl_path.into_inner();
-    let mut asset = Asset::default();
-    let mtl_materials = match materials {
-        Ok(m) => m,
-        Err(e) => {
-            let which = mtl_path
-                .as_ref()
-                .map_or("the material library".to_string(), |p| {
-                    p.display().to_string()
-                });
-            let why = match e {
-                tobj::LoadError::OpenFileFailed => mtl_unreadable
-                    .clone()
-                    .unwrap_or_else(|| "cannot be opened".to_string()),
-                other => format!("cannot be read ({other})"),
-            };
-            asset
-                .warnings
-                .push(format!("{which} {why}: its faces use the default material"));
-            Vec::new()
+            Err(why) => asset.warnings.push(format!(
+                "{} {why}: its faces use the default material",
+                full.display()
+            )),
         }
-    };
-    let mtl_dir = mtl_path
-        .as_ref()
-        .and_then(|p| p.parent())
-        .unwrap_or(&base)
-        .to_path_buf();
+    }
     // Each material's warnings and unmapped features, reported only for
     // the materials that faces use.
     let mut said: Vec<(Vec<String>, Vec<String>)> = Vec::new();
@@ -116,77 +91,16 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
         said.push((warnings, ignored));
     }
 
-    for model in &models {
-        let m = &model.mesh;
-        let count = m.positions.len() / 3;
-        let mut mesh = Mesh {
-            positions: m
-                .positions
-                .chunks_exact(3)
-                .map(|v| Vec3::new(v[0], v[1], v[2]))
-                .collect(),
-            ..Default::default()
-        };
-        if smooth && m.normals.len() == m.positions.len() {
-            let normals: Vec<Vec3> = m
-                .normals
-                .chunks_exact(3)
-                .map(|n| Vec3::new(n[0], n[1], n[2]))
-                .collect();
-            if normals.iter().all(|n| n.is_finite()) {
-                mesh.normals = Some(normals);
-            }
-        }
-        if m.texcoords.len() == 2 * count {
-            // OBJ's v runs up from the bottom of the image; ours runs down.
-            mesh.uvs = Some(
-                m.texcoords
-                    .chunks_exact(2)
-                    .map(|t| Vec2::new(t[0], 1.0 - t[1]))
-                    .collect(),
-            );
-        }
-        if m.indices.iter().any(|&i| i as usize >= count) {
-            return Err(format!(
-                "face index out of range in object `{}`",
-                model.name
-            ));
-        }
-        if m.face_arities.is_empty() {
-            // Every face a triangle.
-            mesh.indices
-                .extend(m.indices.chunks_exact(3).map(|f| [f[0], f[1], f[2]]));
-        } else {
-            let mut start = 0;
-            for &arity in &m.face_arities {
-                let Some(face) = m.indices.get(start..start + arity as usize) else {
-                    return Err(format!("a face of object `{}` is cut short", model.name));
-                };
-                start += arity as usize;
-                let points: Vec<Vec3> = face.iter().map(|&i| mesh.positions[i as usize]).collect();
-                mesh.indices.extend(
-                    polygon::triangulate(&points)
-                        .into_iter()
-                        .map(|t| t.map(|k| face[k])),
-                );
-            }
-        }
-        if mesh.indices.is_empty() {
-            continue;
-        }
-        if let Some(bad) = mesh.positions.iter().position(|p| !p.is_finite()) {
-            return Err(format!(
-                "vertex {} of object `{}` is not finite",
-                bad + 1,
-                model.name
-            ));
-        }
-        let material = m.material_id.filter(|&id| id < asset.materials.len());
-        asset.pieces.push(Piece {
-            mesh,
-            material,
-            name: model.name.clone(),
-        });
+    let pieces: Vec<Result<Option<Piece>, String>> = geometry
+        .pieces
+        .into_par_iter()
+        .map(|p| {
+            let material = p.material.as_ref().and_then(|m| by_name.get(m).copied());
+            piece(p, material, smooth)
+        })
+        .collect();
+    for p in pieces {
+        asset.pieces.extend(p?);
     }
     if asset.pieces.is_empty() {
         return Err("the OBJ file has no faces".into());
@@ -204,6 +118,50 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     ignored.dedup();
     asset.ignored = ignored;
     Ok(asset)
+}
+
+/// A piece of the OBJ as a mesh: polygons triangulated in their own
+/// planes, OBJ's upward v turned into ours. None if it has no triangles.
+fn piece(
+    p: super::obj_text::ObjPiece,
+    material: Option<usize>,
+    smooth: bool,
+) -> Result<Option<Piece>, String> {
+    let mut mesh = Mesh {
+        positions: p.positions,
+        // OBJ's v runs up from the bottom of the image; ours runs down.
+        uvs: p
+            .uvs
+            .map(|uvs| uvs.into_iter().map(|t| Vec2::new(t.x, 1.0 - t.y)).collect()),
+        normals: p
+            .normals
+            .filter(|n| smooth && n.iter().all(|n| n.is_finite())),
+        ..Default::default()
+    };
+    let mut start = 0;
+    mesh.indices.reserve(p.arities.len());
+    for &arity in &p.arities {
+        let face = &p.corners[start..start + arity as usize];
+        start += arity as usize;
+        if arity == 3 {
+            mesh.indices.push([face[0], face[1], face[2]]);
+            continue;
+        }
+        let points: Vec<Vec3> = face.iter().map(|&i| mesh.positions[i as usize]).collect();
+        mesh.indices.extend(
+            polygon::triangulate(&points)
+                .into_iter()
+                .map(|t| t.map(|k| face[k])),
+        );
+    }
+    if mesh.indices.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(Piece {
+        mesh,
+        material,
+        name: p.name,
+    }))
 }
 
 /// A texture named in the MTL file; a missing or broken one is a warning.

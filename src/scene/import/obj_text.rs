@@ -1,0 +1,593 @@
+//! The geometry of an OBJ file, read in parallel: the text is cut at line
+//! breaks into chunks that threads read on their own (vertices, faces and
+//! the `o`/`g`/`usemtl`/`mtllib` statements between them); counts summed
+//! over the chunks before each one then resolve its relative (negative)
+//! indices and its line numbers, and the faces are gathered into pieces
+//! (one per object or group and material, as OBJ readers split them), each
+//! with the vertices its faces use. Material libraries are read elsewhere.
+//!
+//! Read: `v x y z [w]` (a colour after the position is skipped), `vt u v`,
+//! `vn x y z`, `f` with `v`, `v/vt`, `v//vn`, `v/vt/vn` corners, positive
+//! or negative; `o`, `g`, `usemtl`, `mtllib`. Lines, points, curves,
+//! surfaces and smoothing groups carry no triangles and are skipped.
+
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// The faces of one object or group with one material.
+#[derive(Debug, Default)]
+pub struct ObjPiece {
+    /// The `o` or `g` name ("unnamed_object" before any).
+    pub name: String,
+    /// The `usemtl` name in force, if any.
+    pub material: Option<String>,
+    pub positions: Vec<Vec3>,
+    /// Per vertex, where every corner of the piece names one.
+    pub uvs: Option<Vec<Vec2>>,
+    pub normals: Option<Vec<Vec3>>,
+    /// Corners of the faces, face after face, as indices into the vertices.
+    pub corners: Vec<u32>,
+    /// Corners per face (3 or more).
+    pub arities: Vec<u32>,
+}
+
+/// What an OBJ file holds: its pieces in file order and the material
+/// libraries it names.
+#[derive(Debug, Default)]
+pub struct ObjGeometry {
+    pub pieces: Vec<ObjPiece>,
+    pub material_libraries: Vec<String>,
+}
+
+/// Chunks are cut no smaller than this, so that small files stay whole.
+const MIN_CHUNK: usize = 1 << 20;
+
+/// No corner attribute (texture coordinate or normal).
+const NONE: u32 = u32::MAX;
+
+/// Parses OBJ text. Errors name the line.
+pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
+    let chunks = split_at_lines(bytes, rayon::current_num_threads() * 4);
+    let mut read: Vec<Chunk> = chunks.par_iter().map(|c| Chunk::read(c)).collect();
+    // Counts before each chunk: lines, and v, vt, vn.
+    let mut before = Vec::with_capacity(read.len());
+    let mut totals = [0usize; 4];
+    for c in &read {
+        before.push(totals);
+        totals[0] += c.lines;
+        totals[1] += c.positions.len();
+        totals[2] += c.uvs.len();
+        totals[3] += c.normals.len();
+    }
+    if let Some((c, (line, message))) = read
+        .iter()
+        .enumerate()
+        .find_map(|(i, c)| c.error.clone().map(|e| (i, e)))
+    {
+        return Err(format!("line {}: {message}", before[c][0] + line));
+    }
+    read.par_iter_mut()
+        .zip(&before)
+        .try_for_each(|(c, b)| c.resolve(*b, totals))?;
+
+    let positions: Vec<Vec3> = read
+        .iter()
+        .flat_map(|c| c.positions.iter().copied())
+        .collect();
+    let uvs: Vec<Vec2> = read.iter().flat_map(|c| c.uvs.iter().copied()).collect();
+    let normals: Vec<Vec3> = read
+        .iter()
+        .flat_map(|c| c.normals.iter().copied())
+        .collect();
+    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(format!("vertex {} is not finite", i + 1));
+    }
+
+    // Pieces: face ranges (chunk, faces) between the statements that split.
+    let mut geometry = ObjGeometry::default();
+    let mut plans: Vec<Plan> = Vec::new();
+    let mut current = Plan {
+        name: "unnamed_object".into(),
+        ..Plan::default()
+    };
+    for (k, chunk) in read.iter().enumerate() {
+        let mut start = 0;
+        for (at, statement) in &chunk.statements {
+            if *at > start {
+                current.ranges.push((k, start, *at));
+                start = *at;
+            }
+            match statement {
+                Statement::Group(name) => {
+                    let next = Plan {
+                        name: name.clone(),
+                        material: current.material.clone(),
+                        ranges: Vec::new(),
+                    };
+                    plans.push(std::mem::replace(&mut current, next));
+                }
+                Statement::Material(name) => {
+                    if current.material.as_ref() != Some(name) {
+                        let next = Plan {
+                            name: current.name.clone(),
+                            material: Some(name.clone()),
+                            ranges: Vec::new(),
+                        };
+                        plans.push(std::mem::replace(&mut current, next));
+                    }
+                }
+                Statement::Library(name) => geometry.material_libraries.push(name.clone()),
+            }
+        }
+        if chunk.arities.len() > start {
+            current.ranges.push((k, start, chunk.arities.len()));
+        }
+    }
+    plans.push(current);
+    plans.retain(|p| !p.ranges.is_empty());
+    let sources = Sources {
+        chunks: &read,
+        positions: &positions,
+        uvs: &uvs,
+        normals: &normals,
+    };
+    geometry.pieces = plans.into_par_iter().map(|p| sources.piece(p)).collect();
+    Ok(geometry)
+}
+
+/// `bytes` cut into about `parts` pieces, each ending at a line break.
+fn split_at_lines(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
+    let size = (bytes.len() / parts.max(1)).max(MIN_CHUNK);
+    let mut chunks = Vec::new();
+    let mut start = 0;
+    while start < bytes.len() {
+        let mut end = (start + size).min(bytes.len());
+        if let Some(nl) = bytes[end..].iter().position(|&b| b == b'\n') {
+            end += nl + 1;
+        } else {
+            end = bytes.len();
+        }
+        chunks.push(&bytes[start..end]);
+        start = end;
+    }
+    chunks
+}
+
+/// A statement that splits faces into pieces, or names a library.
+#[derive(Clone, Debug)]
+enum Statement {
+    Group(String),
+    Material(String),
+    Library(String),
+}
+
+/// One chunk's contents as read.
+#[derive(Default)]
+struct Chunk {
+    lines: usize,
+    positions: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    normals: Vec<Vec3>,
+    /// Per corner: v, vt, vn as written (1-based, negative relative, 0
+    /// none), until `resolve` makes them 0-based indices (NONE for none).
+    raw: Vec<[i64; 3]>,
+    /// Per face: the chunk's v, vt, vn counts where it was read, and its
+    /// line in the chunk.
+    seen: Vec<([u32; 3], usize)>,
+    /// Resolved corners.
+    corners: Vec<[u32; 3]>,
+    arities: Vec<u32>,
+    /// Before which face each statement came.
+    statements: Vec<(usize, Statement)>,
+    /// The first error: line within the chunk (1-based) and message.
+    error: Option<(usize, String)>,
+}
+
+impl Chunk {
+    fn read(text: &[u8]) -> Chunk {
+        let mut c = Chunk::default();
+        for line in text.split(|&b| b == b'\n') {
+            c.lines += 1;
+            if let Err(message) = c.line(line) {
+                c.error = Some((c.lines, message));
+                break;
+            }
+        }
+        // The text of a chunk ends with its last line's break.
+        if text.last() == Some(&b'\n') {
+            c.lines -= 1;
+        }
+        c
+    }
+
+    fn line(&mut self, line: &[u8]) -> Result<(), String> {
+        let line = line.strip_suffix(b"\r").unwrap_or(line);
+        let mut words = line
+            .split(|b| b.is_ascii_whitespace())
+            .filter(|w| !w.is_empty());
+        let Some(keyword) = words.next() else {
+            return Ok(());
+        };
+        match keyword {
+            b"v" => {
+                let [x, y, z] = floats(&mut words, "v")?;
+                // `v x y z w` is homogeneous; `v x y z r g b` has a colour.
+                let rest: Vec<&[u8]> = words.collect();
+                let w = match rest.len() {
+                    1 => number(rest[0], "v")?,
+                    _ => 1.0,
+                };
+                if w == 0.0 {
+                    return Err("a vertex with weight w = 0".into());
+                }
+                self.positions.push(Vec3::new(x, y, z) / w);
+            }
+            b"vt" => {
+                let u = number(words.next().ok_or("`vt` needs u")?, "vt")?;
+                let v = words.next().map_or(Ok(0.0), |w| number(w, "vt"))?;
+                self.uvs.push(Vec2::new(u, v));
+            }
+            b"vn" => {
+                let [x, y, z] = floats(&mut words, "vn")?;
+                self.normals.push(Vec3::new(x, y, z));
+            }
+            b"f" => {
+                let seen = [
+                    self.positions.len() as u32,
+                    self.uvs.len() as u32,
+                    self.normals.len() as u32,
+                ];
+                let mut arity = 0;
+                for word in words {
+                    self.raw.push(corner(word)?);
+                    arity += 1;
+                }
+                if arity < 3 {
+                    // Two corners make no triangle.
+                    self.raw.truncate(self.raw.len() - arity as usize);
+                } else {
+                    self.arities.push(arity);
+                    self.seen.push((seen, self.lines));
+                }
+            }
+            b"o" | b"g" => {
+                let name = rest_of(line, keyword);
+                let name = if name.is_empty() {
+                    "unnamed_object".to_string()
+                } else {
+                    name
+                };
+                self.statements
+                    .push((self.arities.len(), Statement::Group(name)));
+            }
+            b"usemtl" => {
+                let name = rest_of(line, keyword);
+                if !name.is_empty() {
+                    self.statements
+                        .push((self.arities.len(), Statement::Material(name)));
+                }
+            }
+            b"mtllib" => {
+                let name = rest_of(line, keyword);
+                if !name.is_empty() {
+                    self.statements
+                        .push((self.arities.len(), Statement::Library(name)));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Turns the raw corners into 0-based indices, given the counts of
+    /// lines and v, vt, vn before the chunk and in the whole file.
+    fn resolve(&mut self, before: [usize; 4], totals: [usize; 4]) -> Result<(), String> {
+        let mut corners = Vec::with_capacity(self.raw.len());
+        let mut raw = self.raw.iter();
+        for (&arity, &(seen, line)) in self.arities.iter().zip(&self.seen) {
+            for corner in raw.by_ref().take(arity as usize) {
+                let mut out = [NONE; 3];
+                for a in 0..3 {
+                    let total = totals[a + 1];
+                    let index = match corner[a] {
+                        0 => continue,
+                        i if i > 0 => i - 1,
+                        i => (before[a + 1] + seen[a] as usize) as i64 + i,
+                    };
+                    if index < 0 || index as usize >= total {
+                        let what = ["vertex", "texture coordinate", "normal"][a];
+                        return Err(format!(
+                            "line {}: {what} index {} is out of range (the file has {total})",
+                            before[0] + line,
+                            corner[a]
+                        ));
+                    }
+                    out[a] = index as u32;
+                }
+                corners.push(out);
+            }
+        }
+        self.corners = corners;
+        self.raw = Vec::new();
+        self.seen = Vec::new();
+        Ok(())
+    }
+}
+
+/// Three numbers of a `v` or `vn` line.
+fn floats<'a>(words: &mut impl Iterator<Item = &'a [u8]>, what: &str) -> Result<[f32; 3], String> {
+    let mut out = [0.0; 3];
+    for v in &mut out {
+        *v = number(
+            words
+                .next()
+                .ok_or_else(|| format!("`{what}` needs three numbers"))?,
+            what,
+        )?;
+    }
+    Ok(out)
+}
+
+fn number(word: &[u8], what: &str) -> Result<f32, String> {
+    std::str::from_utf8(word)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .ok_or_else(|| {
+            format!(
+                "`{what}`: `{}` is not a number",
+                String::from_utf8_lossy(&word[..word.len().min(40)])
+            )
+        })
+}
+
+/// A face corner `v`, `v/vt`, `v//vn` or `v/vt/vn` as written (0: none).
+fn corner(word: &[u8]) -> Result<[i64; 3], String> {
+    let mut out = [0i64; 3];
+    for (k, part) in word.split(|&b| b == b'/').enumerate() {
+        if k > 2 || (k == 0 && part.is_empty()) {
+            return Err(bad_corner(word));
+        }
+        if part.is_empty() {
+            continue;
+        }
+        out[k] = integer(part).ok_or_else(|| bad_corner(word))?;
+    }
+    Ok(out)
+}
+
+fn bad_corner(word: &[u8]) -> String {
+    format!(
+        "`f`: `{}` is not a face corner (v, v/vt, v//vn or v/vt/vn)",
+        String::from_utf8_lossy(&word[..word.len().min(40)])
+    )
+}
+
+/// A nonzero integer, optionally negative, of at most 18 digits.
+fn integer(digits: &[u8]) -> Option<i64> {
+    let (negative, digits) = match digits.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        Some((b'+', rest)) => (false, rest),
+        _ => (false, digits),
+    };
+    if digits.is_empty() || digits.len() > 18 {
+        return None;
+    }
+    let mut value = 0i64;
+    for &d in digits {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        value = value * 10 + (d - b'0') as i64;
+    }
+    (value != 0).then_some(if negative { -value } else { value })
+}
+
+/// What follows the keyword on its line, trimmed (names may hold spaces).
+fn rest_of(line: &[u8], keyword: &[u8]) -> String {
+    let start = line
+        .windows(keyword.len())
+        .position(|w| w == keyword)
+        .map_or(line.len(), |p| p + keyword.len());
+    String::from_utf8_lossy(&line[start..]).trim().to_string()
+}
+
+/// A piece before its vertices are gathered: its faces as (chunk, first
+/// face, end face) ranges.
+#[derive(Default)]
+struct Plan {
+    name: String,
+    material: Option<String>,
+    ranges: Vec<(usize, usize, usize)>,
+}
+
+/// The whole file's vertex arrays and chunks, for gathering pieces.
+struct Sources<'a> {
+    chunks: &'a [Chunk],
+    positions: &'a [Vec3],
+    uvs: &'a [Vec2],
+    normals: &'a [Vec3],
+}
+
+impl Sources<'_> {
+    /// The piece's faces with their own vertices: one per distinct
+    /// (v, vt, vn) its corners use (vt and vn only where every corner has
+    /// them).
+    fn piece(&self, plan: Plan) -> ObjPiece {
+        // Corner offsets of each chunk's faces.
+        let corner_ranges: Vec<(&[u32], &[[u32; 3]])> = plan
+            .ranges
+            .iter()
+            .map(|&(k, a, b)| {
+                let c = &self.chunks[k];
+                let first: usize = c.arities[..a].iter().map(|&n| n as usize).sum();
+                let count: usize = c.arities[a..b].iter().map(|&n| n as usize).sum();
+                (&c.arities[a..b], &c.corners[first..first + count])
+            })
+            .collect();
+        let all = || corner_ranges.iter().flat_map(|r| r.1.iter());
+        let with_uv = all().all(|c| c[1] != NONE);
+        let with_normal = all().all(|c| c[2] != NONE);
+        let key = |c: &[u32; 3]| {
+            [
+                c[0],
+                if with_uv { c[1] } else { NONE },
+                if with_normal { c[2] } else { NONE },
+            ]
+        };
+        // Each position's first vertex in a dense table over the range of
+        // positions the piece uses (exporters write an object's vertices
+        // together); further (vt, vn) pairs of a position in a map.
+        let (lo, hi) = all().fold((u32::MAX, 0), |(lo, hi), c| (lo.min(c[0]), hi.max(c[0])));
+        let corners_count: usize = corner_ranges.iter().map(|r| r.1.len()).sum();
+        let dense = (hi - lo) as usize <= 4 * corners_count + 1024;
+        let mut first = if dense {
+            vec![NONE; (hi - lo) as usize + 1]
+        } else {
+            Vec::new()
+        };
+        let mut others: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut keys: Vec<[u32; 3]> = Vec::new();
+        let mut corners = Vec::with_capacity(corners_count);
+        for c in all() {
+            let k = key(c);
+            let slot = if dense {
+                &mut first[(k[0] - lo) as usize]
+            } else {
+                others.entry([k[0], NONE - 1, NONE - 1]).or_insert(NONE)
+            };
+            let index = if *slot == NONE {
+                *slot = keys.len() as u32;
+                keys.push(k);
+                *slot
+            } else if keys[*slot as usize] == k {
+                *slot
+            } else {
+                let next = keys.len() as u32;
+                let index = *others.entry(k).or_insert(next);
+                if index == next {
+                    keys.push(k);
+                }
+                index
+            };
+            corners.push(index);
+        }
+        ObjPiece {
+            name: plan.name,
+            material: plan.material,
+            positions: keys.iter().map(|k| self.positions[k[0] as usize]).collect(),
+            uvs: with_uv.then(|| keys.iter().map(|k| self.uvs[k[1] as usize]).collect()),
+            normals: with_normal
+                .then(|| keys.iter().map(|k| self.normals[k[2] as usize]).collect()),
+            corners,
+            arities: corner_ranges
+                .iter()
+                .flat_map(|r| r.0.iter().copied())
+                .collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pieces_split_by_group_and_material_with_their_own_vertices() {
+        let text = b"mtllib a b.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n\
+            o first\nusemtl red\nf 1/1/1 2/1/1 3/1/1\nusemtl blue\nf -4/1/1 -2/1/1 -1/1/1\n\
+            g second\nf 1 2 3 4\n";
+        let g = parse(text).unwrap();
+        assert_eq!(g.material_libraries, vec!["a b.mtl"]);
+        let summary: Vec<_> = g
+            .pieces
+            .iter()
+            .map(|p| {
+                (
+                    p.name.as_str(),
+                    p.material.as_deref(),
+                    p.positions.len(),
+                    p.arities.clone(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            summary,
+            vec![
+                ("first", Some("red"), 3, vec![3]),
+                ("first", Some("blue"), 3, vec![3]),
+                ("second", Some("blue"), 4, vec![4]),
+            ]
+        );
+        assert_eq!(g.pieces[1].positions[2], Vec3::new(0.0, 1.0, 0.0));
+        assert!(g.pieces[0].uvs.is_some() && g.pieces[0].normals.is_some());
+        assert!(g.pieces[2].uvs.is_none() && g.pieces[2].normals.is_none());
+    }
+
+    #[test]
+    fn a_large_file_reads_the_same_in_chunks() {
+        // Vertices and faces interleaved over many chunks, with relative
+        // indices reaching back across chunk boundaries.
+        let mut text = String::new();
+        for i in 0..60_000 {
+            text += &format!("v {i} {} 0\nvt 0.5 0.25\nv {i} {} 1\n", i * 2, i * 3);
+            if i > 0 {
+                text += "f -3/-1 -2/-1 -1/-1\n";
+            }
+            if i % 20_000 == 0 {
+                text += &format!("g part{i}\n");
+            }
+        }
+        assert!(text.len() > 2 * MIN_CHUNK);
+        let g = parse(text.as_bytes()).unwrap();
+        let faces: usize = g.pieces.iter().map(|p| p.arities.len()).sum();
+        assert_eq!(faces, 59_999);
+        // The face after vertex pair i uses the second vertex of pair i - 1
+        // and both of pair i; the second group starts at i = 20001.
+        let p = &g.pieces[1];
+        assert_eq!(p.name, "part20000");
+        let first = &p.corners[..3];
+        let pos: Vec<Vec3> = first.iter().map(|&c| p.positions[c as usize]).collect();
+        assert_eq!(
+            pos,
+            [
+                Vec3::new(20000.0, 60000.0, 1.0),
+                Vec3::new(20001.0, 40002.0, 0.0),
+                Vec3::new(20001.0, 60003.0, 1.0)
+            ]
+        );
+        assert!(p
+            .uvs
+            .as_ref()
+            .unwrap()
+            .iter()
+            .all(|&t| t == Vec2::new(0.5, 0.25)));
+    }
+
+    #[test]
+    fn colours_weights_lines_and_comments_are_read_or_skipped() {
+        let text = b"# a comment\r\nv 0 0 0 1 0 0\r\nv 2 0 0 2\r\nv 0 1 0\r\ns 1\r\nl 1 2\r\np 3\r\nf 1 2\r\nf 1 2 3\r\n";
+        let g = parse(text).unwrap();
+        assert_eq!(g.pieces.len(), 1);
+        let p = &g.pieces[0];
+        assert_eq!(p.arities, vec![3]);
+        // `v 2 0 0 2` is (1, 0, 0); the colour after the first is skipped.
+        assert_eq!(p.positions[1], Vec3::X);
+        assert_eq!(p.name, "unnamed_object");
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let e = parse(b"v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap_err();
+        assert!(
+            e.starts_with("line 3: vertex index 7 is out of range (the file has 2)"),
+            "{e}"
+        );
+        let e = parse(b"v 0 0 0\nv 1 x 0\n").unwrap_err();
+        assert!(e.starts_with("line 2: `v`: `x` is not a number"), "{e}");
+        let e = parse(b"v 0 0 0\n\nf 1/ 1 1/2/3/4\n").unwrap_err();
+        assert!(e.starts_with("line 3: `f`"), "{e}");
+        assert!(parse(b"v 0 0 0 0\n").unwrap_err().contains("w = 0"));
+    }
+}
