@@ -287,7 +287,14 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
     let [x0, y0, x1, y1] = options.region;
     let region =
         (x1.min(f.width).saturating_sub(x0) as u64) * (y1.min(f.height).saturating_sub(y0) as u64);
-    let batch = region.min((TILES_PER_BATCH as u64) * (TILE_SIZE as u64).pow(2));
+    // Tiles in flight: a batch of them for splatting integrators (added in
+    // order), else one a thread (each adds itself when done).
+    let tiles = if scene.integrator.splats() {
+        TILES_PER_BATCH as u64
+    } else {
+        options.threads.unwrap_or_else(rayon::current_num_threads) as u64
+    };
+    let batch = region.min(tiles * (TILE_SIZE as u64).pow(2));
     let pass = options.samples.len().div_ceil(16).clamp(1, 16) as u64;
     // Per sample: up to four spectral entries of 12 bytes; splats add XYZ.
     let mut per_sample = 4 * 12;
@@ -307,9 +314,9 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
     }
 }
 
-/// Tiles rendered before their results are added to the film: bounds the
-/// memory that finished tiles hold (splats can be many) while keeping the
-/// order of additions fixed.
+/// Tiles of a splatting integrator rendered before their results are
+/// added to the film: bounds the memory that finished tiles hold (splats
+/// can be many) while keeping the order of additions fixed.
 const TILES_PER_BATCH: usize = 256;
 
 fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats) {
@@ -414,83 +421,93 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
             rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
             overflows.fetch_add(prepare_counters.stack_overflows, Ordering::Relaxed);
-            for batch in tiles.chunks(TILES_PER_BATCH) {
-                let results: Vec<FilmTile> = batch
-                    .par_iter()
-                    .map(|&(x0, y0, w, h)| {
-                        let mut tile =
-                            FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
-                        if aovs.is_some() {
-                            tile = tile.with_aovs();
-                        }
-                        let mut counters = PathCounters::default();
-                        let mut bad = 0;
-                        for y in y0..y0 + h {
-                            for x in x0..x0 + w {
-                                let end = match &targets {
-                                    Some(t) => range
-                                        .end
-                                        .min(t[((y - ry0) * region_width + x - rx0) as usize]),
-                                    None => range.end,
-                                };
-                                let taken = end.saturating_sub(range.start) as u64;
-                                done.fetch_add(taken, Ordering::Relaxed);
-                                bar.inc(taken);
-                                for index in range.start..end {
-                                    let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
-                                    let s = scene.integrator.sample(
-                                        scene,
-                                        x,
-                                        y,
-                                        &mut sampler,
-                                        &prepared,
-                                        &mut tile,
-                                        &mut counters,
-                                    );
-                                    if s.l.is_finite() {
-                                        tile.add_sample(x, y, s.l, &s.wl);
-                                    } else {
-                                        bad += 1;
-                                        tile.add_empty_sample(x, y);
-                                    }
-                                    if let Some(aovs) = &aovs {
-                                        // A stream of its own: the image is
-                                        // the same with or without AOVs.
-                                        let mut s = Sampler::for_sample(
-                                            seed ^ AOV_SEED,
-                                            x,
-                                            y,
-                                            index as u64,
-                                        );
-                                        let [dx, dy, _, _] = s.next_4d();
-                                        let a = aovs.first_hit(
-                                            scene,
-                                            x as f32 + dx,
-                                            y as f32 + dy,
-                                            &mut s,
-                                        );
-                                        tile.add_aov(x, y, &a);
-                                    }
-                                }
+            let render_tile = |&(x0, y0, w, h): &(u32, u32, u32, u32)| {
+                let mut tile =
+                    FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
+                if aovs.is_some() {
+                    tile = tile.with_aovs();
+                }
+                let mut counters = PathCounters::default();
+                let mut bad = 0;
+                // Progress is counted per tile: per pixel, every thread
+                // would update the same counters hundreds of thousands of
+                // times a pass.
+                let mut taken = 0;
+                for y in y0..y0 + h {
+                    for x in x0..x0 + w {
+                        let end = match &targets {
+                            Some(t) => range
+                                .end
+                                .min(t[((y - ry0) * region_width + x - rx0) as usize]),
+                            None => range.end,
+                        };
+                        taken += end.saturating_sub(range.start) as u64;
+                        for index in range.start..end {
+                            let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
+                            let s = scene.integrator.sample(
+                                scene,
+                                x,
+                                y,
+                                &mut sampler,
+                                &prepared,
+                                &mut tile,
+                                &mut counters,
+                            );
+                            if s.l.is_finite() {
+                                tile.add_sample(x, y, s.l, &s.wl);
+                            } else {
+                                bad += 1;
+                                tile.add_empty_sample(x, y);
+                            }
+                            if let Some(aovs) = &aovs {
+                                // A stream of its own: the image is
+                                // the same with or without AOVs.
+                                let mut s =
+                                    Sampler::for_sample(seed ^ AOV_SEED, x, y, index as u64);
+                                let [dx, dy, _, _] = s.next_4d();
+                                let a = aovs.first_hit(scene, x as f32 + dx, y as f32 + dy, &mut s);
+                                tile.add_aov(x, y, &a);
                             }
                         }
-                        bad += tile.non_finite_splats;
-                        rays.fetch_add(counters.rays, Ordering::Relaxed);
-                        overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
-                        non_finite.fetch_add(bad, Ordering::Relaxed);
-                        tile
-                    })
-                    .collect();
-                for tile in &results {
-                    film.add_tile(tile);
+                    }
                 }
+                done.fetch_add(taken, Ordering::Relaxed);
+                bar.inc(taken);
+                bad += tile.non_finite_splats;
+                rays.fetch_add(counters.rays, Ordering::Relaxed);
+                overflows.fetch_add(counters.stack_overflows, Ordering::Relaxed);
+                non_finite.fetch_add(bad, Ordering::Relaxed);
+                tile
+            };
+            if scene.integrator.splats() {
+                // Splats land anywhere: tiles are added in a fixed order,
+                // a batch at a time, so the image is the same for any
+                // thread count.
+                for batch in tiles.chunks(TILES_PER_BATCH) {
+                    let results: Vec<FilmTile> = batch.par_iter().map(render_tile).collect();
+                    for tile in &results {
+                        film.add_tile(tile);
+                    }
+                }
+            } else {
+                // A pass adds one tile to each pixel: tiles add to the film
+                // as they finish, each into its band of rows, by the thread
+                // that rendered it (a pixel's sums are the same in any order
+                // of tiles, and no thread waits for a batch).
+                let bands = film.bands(ry0, TILE_SIZE);
+                tiles.par_iter().for_each(|t| {
+                    let tile = render_tile(t);
+                    let band = &bands[((t.1 - ry0) / TILE_SIZE) as usize];
+                    band.lock().expect("no panic while adding").add_tile(&tile);
+                });
             }
             first = range.end;
             passes += 1;
             if let Some(hook) = &options.after_pass {
                 (hook.0)(&film);
             }
-            if !scene.integrator.splats() {
+            // Estimated between passes only where it decides when to stop.
+            if !scene.integrator.splats() && options.target_error.is_some() {
                 rel_mse = Some(film.estimated_rel_mse([rx0, ry0, rx1, ry1]));
             }
             let reached = options
@@ -512,6 +529,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
         finished.store(true, Ordering::Relaxed);
     });
     bar.finish_and_clear();
+    if !scene.integrator.splats() {
+        rel_mse = Some(film.estimated_rel_mse([rx0, ry0, rx1, ry1]));
+    }
     let taken = film.total_samples();
     let stats = RenderStats {
         samples: taken,

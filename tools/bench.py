@@ -5,10 +5,15 @@
 
 1. `prism bench` renders the ladder (load excluded from the timings) and
    the reference (prism at --reference-spp, rendered once and cached).
-2. Mitsuba 3 `scalar_spectral` renders the same Cornell Box (geometry from
-   scenes/cornell/*.obj, the measured spectra from spectra/, the same camera,
-   box filter, max depth and Russian roulette start) at the same ladder on
-   the same number of threads, timed the same way.
+2. Mitsuba 3 renders the same Cornell Box (geometry from scenes/cornell/*.obj,
+   the measured spectra from spectra/, the same camera, box filter, max depth
+   and Russian roulette start) at the same ladder on the same number of
+   threads, timed the same way, in each variant of `--variants`:
+   `scalar_spectral` (the default) and `llvm_ad_spectral`, its fastest CPU
+   variant, which JIT-compiles its kernels: a first render (not part of the
+   ladder) compiles them, and its time is reported apart. The LLVM variant
+   needs libLLVM (Debian 12: `apt-get install libllvm19`; this script sets
+   DRJIT_LIBLLVM_PATH to it when that file exists).
 3. Both renderers' rungs are scored against the same reference: relMSE
    (as prism computes it) and HDR-FLIP (flip-evaluator).
 4. Writes OUT/convergence.csv and OUT/convergence.png (log-log error against
@@ -95,16 +100,23 @@ def flip_error(image, reference):
     return float(mean)
 
 
+LIBLLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
+
+
 class Mitsuba:
     """The Cornell Box of scenes/cornell-box.toml in Mitsuba 3."""
 
-    def __init__(self, threads, width=512, height=512, max_depth=16, rr_depth=3):
+    def __init__(self, threads, variant="scalar_spectral", width=512, height=512, max_depth=16, rr_depth=3):
+        if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(LIBLLVM):
+            os.environ["DRJIT_LIBLLVM_PATH"] = LIBLLVM
         import drjit as dr
         import mitsuba as mi
 
-        mi.set_variant("scalar_spectral")
+        mi.set_variant(variant)
         dr.set_thread_count(threads)
         self.mi = mi
+        self.variant = variant
+        self.name = f"mitsuba3-{variant}"
         spectra = {
             name: {"type": "spectrum", "value": read_csv_spectrum(ROOT / f"spectra/cornell_{name}.csv")}
             for name in ["white", "red", "green", "light"]
@@ -150,6 +162,8 @@ class Mitsuba:
 
     def render(self, spp, seed):
         """Renders; returns (image HxWx3, wall seconds, CPU seconds)."""
+        # Variants share one module: select this one's before each render.
+        self.mi.set_variant(self.variant)
         c0, w0 = cpu_seconds(), time.perf_counter()
         image = np.array(self.mi.render(self.scene, spp=spp, seed=seed))
         return image, time.perf_counter() - w0, cpu_seconds() - c0
@@ -243,9 +257,9 @@ def region_means(image):
     return {r: image[y0:y1, x0:x1].reshape(-1, 3).mean(axis=0) for r, (x0, y0, x1, y1) in REGIONS.items()}
 
 
-def equal_error_time(rows, target):
-    """Wall time at which a ladder reaches relMSE `target` (log-log interpolation)."""
-    pts = sorted((float(r["wall_s"]), float(r["rel_mse"])) for r in rows)
+def equal_error_time(rows, target, clock="wall_s"):
+    """Time (`clock`: wall_s or cpu_s) at which a ladder reaches relMSE `target` (log-log interpolation)."""
+    pts = sorted((float(r[clock]), float(r["rel_mse"])) for r in rows)
     for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
         if e0 >= target >= e1:
             f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
@@ -266,6 +280,8 @@ def main():
     ap.add_argument("--check-spp", type=int, default=64)
     ap.add_argument("--check-only", action="store_true", help="only the convergence check")
     ap.add_argument("--no-mitsuba", action="store_true")
+    ap.add_argument("--variants", default="scalar_spectral",
+                    help="Mitsuba variants, comma-separated (scalar_spectral, llvm_ad_spectral)")
     ap.add_argument("--prism", help="the prism binary (default: target/release/prism, built if missing)")
     args = ap.parse_args()
     global PRISM
@@ -283,25 +299,30 @@ def main():
     run_prism(args, out, [1])
     reference_path = sorted(out.glob(f"reference-*-512x512-{args.reference_spp}spp.exr"), key=os.path.getmtime)[-1]
     reference = read_exr(reference_path)
-    mit = None if args.no_mitsuba else Mitsuba(args.threads)
-    if mit:
-        print(f"mitsuba scalar_spectral: scene loaded in {mit.load_s:.3f} s", flush=True)
+    peers = [] if args.no_mitsuba else [Mitsuba(args.threads, v) for v in args.variants.split(",")]
+    for mit in peers:
+        print(f"{mit.name}: scene loaded in {mit.load_s:.3f} s", flush=True)
+        if mit.variant.startswith(("llvm", "cuda")):
+            # The first render compiles the kernels: timed apart, not in the ladder.
+            _, wall, cpu = mit.render(args.spp[0], seed=10_000)
+            print(f"{mit.name}: first (compiling) render at {args.spp[0]} spp: {wall:.3f} s wall, {cpu:.3f} s CPU",
+                  flush=True)
     # Rungs alternate between the renderers, so that drifts in the machine's
     # speed hit both alike.
     rows = []
     for i, spp in enumerate(args.spp):
         for r in run_prism(args, out, [spp]):
             rows.append({**r, "flip": flip_error(read_exr(r["image"]), reference)})
-        if mit:
+        for mit in peers:
             import mitsuba as mi
 
             image, wall, cpu = mit.render(spp, seed=i + 1)
-            path = out / f"mitsuba-{spp}spp.exr"
+            path = out / f"{mit.name}-{spp}spp.exr"
             mi.Bitmap(image).write(str(path))
             e = rel_mse(image, reference)
             rows.append(
                 {
-                    "renderer": "mitsuba3-scalar_spectral",
+                    "renderer": mit.name,
                     "scene": "scenes/cornell-box.toml",
                     "spp": spp,
                     "wall_s": f"{wall:.6f}",
@@ -312,7 +333,7 @@ def main():
                     "flip": flip_error(image, reference),
                 }
             )
-            print(f"mitsuba {spp:>6} spp: {wall:8.3f} s wall, {cpu:8.3f} s CPU, relMSE {e:.3e}", flush=True)
+            print(f"{mit.name} {spp:>6} spp: {wall:8.3f} s wall, {cpu:8.3f} s CPU, relMSE {e:.3e}", flush=True)
 
     fields = ["renderer", "scene", "spp", "wall_s", "cpu_s", "load_s", "rel_mse", "flip", "image"]
     with open(out / "convergence.csv", "w", newline="") as f:
@@ -352,16 +373,16 @@ def plot(rows, path, args):
 
 
 def summarise(rows):
-    names = sorted({r["renderer"] for r in rows})
-    if len(names) < 2:
-        return
     prism = [r for r in rows if r["renderer"] == "prism"]
-    other = [r for r in rows if r["renderer"] != "prism"]
-    print("time to equal relMSE (prism / mitsuba):")
-    for r in other:
-        target = float(r["rel_mse"])
-        tp = equal_error_time(prism, target)
-        print(f"  relMSE {target:.3e}: mitsuba {float(r['wall_s']):.2f} s, prism {tp:.2f} s, ratio {tp / float(r['wall_s']):.3f}")
+    for name in sorted({r["renderer"] for r in rows} - {"prism"}):
+        print(f"time to equal relMSE (prism / {name}), wall and CPU:")
+        for r in (r for r in rows if r["renderer"] == name):
+            target = float(r["rel_mse"])
+            tp = equal_error_time(prism, target, "wall_s")
+            cp = equal_error_time(prism, target, "cpu_s")
+            print(f"  relMSE {target:.3e}: {name} {float(r['wall_s']):.2f} s ({float(r['cpu_s']):.2f} CPU-s), "
+                  f"prism {tp:.2f} s ({cp:.2f} CPU-s), ratio {tp / float(r['wall_s']):.3f} wall, "
+                  f"{cp / float(r['cpu_s']):.3f} CPU")
 
 
 if __name__ == "__main__":

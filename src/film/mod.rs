@@ -297,6 +297,44 @@ impl FilmTile {
     }
 }
 
+/// Whole rows of a film, borrowed: what one tile's pixels add to.
+pub struct FilmBand<'a> {
+    y0: u32,
+    width: u32,
+    count: u32,
+    pixels: &'a mut [PixelSums],
+    buckets: &'a mut [f32],
+    aovs: &'a mut [AovSums],
+}
+
+impl FilmBand<'_> {
+    /// Adds a tile's pixel sums, AOVs and spectral entries (in the order
+    /// they were made); its splats are the film's to add.
+    pub fn add_tile(&mut self, tile: &FilmTile) {
+        let index = |i: u32| {
+            ((tile.y0 - self.y0 + i / tile.width) * self.width + tile.x0 + i % tile.width) as usize
+        };
+        for (i, b) in tile.pixels.iter().enumerate() {
+            let a = &mut self.pixels[index(i as u32)];
+            a.xyz += b.xyz;
+            a.y_squared += b.y_squared;
+            a.samples += b.samples;
+        }
+        if !self.aovs.is_empty() {
+            for (i, b) in tile.aovs.iter().enumerate() {
+                let a = &mut self.aovs[index(i as u32)];
+                for (s, v) in a.iter_mut().zip(b) {
+                    *s += v;
+                }
+            }
+        }
+        let n = self.count as usize;
+        for &(i, bucket, v) in &tile.spectral {
+            self.buckets[index(i) * n + bucket as usize] += v;
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
@@ -341,32 +379,63 @@ impl Film {
     }
 
     pub fn add_tile(&mut self, tile: &FilmTile) {
-        let film_index =
-            |i: u32| ((tile.y0 + i / tile.width) * self.width + tile.x0 + i % tile.width) as usize;
-        for (i, b) in tile.pixels.iter().enumerate() {
-            let a = &mut self.pixels[film_index(i as u32)];
-            a.xyz += b.xyz;
-            a.y_squared += b.y_squared;
-            a.samples += b.samples;
-        }
-        if !self.aovs.is_empty() {
-            for (i, b) in tile.aovs.iter().enumerate() {
-                let a = &mut self.aovs[film_index(i as u32)];
-                for (s, v) in a.iter_mut().zip(b) {
-                    *s += v;
-                }
-            }
-        }
         let n = self.layout.count as usize;
-        for &(i, bucket, v) in &tile.spectral {
-            self.buckets[film_index(i) * n + bucket as usize] += v;
-        }
+        self.band(0, self.height).add_tile(tile);
         for &(i, xyz) in &tile.splat_xyz {
             self.pixels[i as usize].xyz += xyz.as_dvec3();
         }
         for &(i, bucket, v) in &tile.splat_spectral {
             self.buckets[i as usize * n + bucket as usize] += v;
         }
+    }
+
+    /// Rows `y0..y0 + rows` as a band that tiles inside it add to.
+    fn band(&mut self, y0: u32, rows: u32) -> FilmBand<'_> {
+        let (w, n) = (self.width as usize, self.layout.count as usize);
+        let (a, b) = (y0 as usize * w, (y0 + rows) as usize * w);
+        FilmBand {
+            y0,
+            width: self.width,
+            count: self.layout.count,
+            pixels: &mut self.pixels[a..b],
+            buckets: &mut self.buckets[a * n..b * n],
+            aovs: if self.aovs.is_empty() {
+                &mut []
+            } else {
+                &mut self.aovs[a..b]
+            },
+        }
+    }
+
+    /// The rows from `y0` on, in bands of `rows` (the last may be
+    /// shorter): tiles of different bands touch different pixels, so
+    /// threads can add them at once, each band behind its own lock.
+    pub fn bands(&mut self, y0: u32, rows: u32) -> Vec<std::sync::Mutex<FilmBand<'_>>> {
+        let (w, n) = (self.width as usize, self.layout.count as usize);
+        let start = y0.min(self.height) as usize * w;
+        let step = rows.max(1) as usize * w;
+        let has_aovs = !self.aovs.is_empty();
+        let aov_start = start.min(self.aovs.len());
+        let mut aovs = self.aovs[aov_start..].chunks_mut(step);
+        self.pixels[start..]
+            .chunks_mut(step)
+            .zip(self.buckets[start * n..].chunks_mut(step * n))
+            .enumerate()
+            .map(|(k, (pixels, buckets))| {
+                std::sync::Mutex::new(FilmBand {
+                    y0: y0 + (k * rows as usize) as u32,
+                    width: self.width,
+                    count: self.layout.count,
+                    pixels,
+                    buckets,
+                    aovs: if has_aovs {
+                        aovs.next().expect("one AOV chunk per band")
+                    } else {
+                        &mut []
+                    },
+                })
+            })
+            .collect()
     }
 
     pub fn sums(&self, x: u32, y: u32) -> &PixelSums {
@@ -425,15 +494,22 @@ impl Film {
     /// samples' spread) over (mean² + 0.01), the ε of `prism bench`'s
     /// relMSE. Pixels with fewer than 2 samples count as infinite error.
     pub fn estimated_rel_mse(&self, region: [u32; 4]) -> f64 {
+        use rayon::prelude::*;
         let [x0, y0, x1, y1] = region;
-        let mut sum = 0.0;
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let (m, var) = self.luminance_and_variance(x, y);
-                sum += var / (m * m + crate::bench::REL_MSE_EPSILON);
-            }
-        }
-        sum / ((x1 - x0) as f64 * (y1 - y0) as f64).max(1.0)
+        // Rows in parallel, their sums added in row order: the same
+        // number for any thread count.
+        let rows: Vec<f64> = (y0..y1)
+            .into_par_iter()
+            .map(|y| {
+                (x0..x1)
+                    .map(|x| {
+                        let (m, var) = self.luminance_and_variance(x, y);
+                        var / (m * m + crate::bench::REL_MSE_EPSILON)
+                    })
+                    .sum()
+            })
+            .collect();
+        rows.iter().sum::<f64>() / ((x1 - x0) as f64 * (y1 - y0) as f64).max(1.0)
     }
 
     pub fn total_samples(&self) -> u64 {

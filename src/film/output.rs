@@ -155,7 +155,7 @@ pub fn write_film_exr(film: &Film, settings: &FilmSettings, path: &Path) -> Resu
     let layer = Layer::new(
         (w, h),
         LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
+        exr_encoding(),
         AnyChannels::sort(channels.into_iter().collect()),
     );
     let mut image = Image::from_layer(layer);
@@ -185,6 +185,17 @@ pub fn exr_chromaticities(space: ColourSpace) -> exr::meta::attribute::Chromatic
     }
 }
 
+/// How prism's EXRs are encoded: RLE in 64² tiles (quick, lossless), and
+/// the tiles in increasing order. The exr crate compresses tiles in
+/// parallel and, without an order, writes them as they finish: the same
+/// image would give different bytes from run to run.
+pub fn exr_encoding() -> exr::prelude::Encoding {
+    exr::prelude::Encoding {
+        line_order: exr::prelude::LineOrder::Increasing,
+        ..exr::prelude::Encoding::FAST_LOSSLESS
+    }
+}
+
 /// Row-major RGB pixels as a float32 RGB OpenEXR, tagged with `space`'s
 /// chromaticities where given.
 pub fn write_rgb_exr_in(
@@ -200,7 +211,7 @@ pub fn write_rgb_exr_in(
         let c = rgb[p.y() * w + p.x()];
         (c.x, c.y, c.z)
     });
-    let mut image = Image::from_channels((w, h), channels);
+    let mut image = Image::from_encoded_channels((w, h), exr_encoding(), channels);
     image.attributes.chromaticities = space.map(exr_chromaticities);
     write_atomically(path, |tmp| {
         image

@@ -189,7 +189,7 @@ pub fn write_image(img: SpectralImage, path: &Path) -> Result<()> {
     let layer = Layer::new(
         (img.width, img.height),
         layer_attributes,
-        Encoding::FAST_LOSSLESS,
+        super::output::exr_encoding(),
         AnyChannels::sort(channels.into_iter().collect()),
     );
     let mut image = Image::from_layer(layer);
