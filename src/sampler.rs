@@ -111,9 +111,50 @@ impl Sampler {
         }
         let seed = mix(self.sobol_seed ^ self.set as u64) as u32;
         self.set += 1;
-        sobol_burley::sample_4d(self.sobol_index, 0, seed)
+        sobol_4d(self.sobol_index, seed)
     }
 }
+
+/// `sobol_burley::sample_4d(index, 0, seed)`, with the Sobol points of the
+/// shuffled index read from two 256-entry tables instead of a loop over
+/// its bits. Sobol points are linear over GF(2) in the index bits, so the
+/// point of a 16-bit index is the XOR of the points of its two bytes. The
+/// loop's trip count varies with the index, and its mispredicted exits
+/// made the sampler 12% of a Cornell Box profile.
+fn sobol_4d(index: u32, seed: u32) -> [f32; 4] {
+    use sobol_burley::parts::{hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev, Int4};
+    // Shuffle the index (Burley 2020), as the crate does.
+    let shuffled = owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x79c6_8e4a));
+    let (high, low) = &*SOBOL_BYTES;
+    let a = high[(shuffled >> 24) as usize];
+    let b = low[((shuffled >> 16) & 0xff) as usize];
+    let sobol = Int4::from([a[0] ^ b[0], a[1] ^ b[1], a[2] ^ b[2], a[3] ^ b[3]]);
+    // The crate's per-dimension scramble seeds for dimension set 0.
+    let seed = seed.wrapping_mul(0x9c8f_2d3b);
+    let scramble = Int4::from([
+        seed ^ 0x912f_69ba,
+        seed ^ 0x174f_18ab,
+        seed ^ 0x691e_72ca,
+        seed ^ 0xb40c_c1b8,
+    ]);
+    owen_scramble_int4_rev(sobol, hash_int4(scramble))
+        .reverse_bits()
+        .to_f32_norm()
+}
+
+/// Sobol dimensions 0–3 (bit-reversed) of every value of the high byte and
+/// of the low byte of a 16-bit sample index.
+type SobolBytes = ([[u32; 4]; 256], [[u32; 4]; 256]);
+
+static SOBOL_BYTES: std::sync::LazyLock<SobolBytes> = std::sync::LazyLock::new(|| {
+    use sobol_burley::parts::sobol_int4_rev;
+    let mut t = ([[0; 4]; 256], [[0; 4]; 256]);
+    for k in 0..256u32 {
+        t.0[k as usize] = sobol_int4_rev(k << 24, 0).into();
+        t.1[k as usize] = sobol_int4_rev(k << 16, 0).into();
+    }
+    t
+});
 
 #[cfg(test)]
 mod tests {
@@ -157,6 +198,20 @@ mod tests {
         // Past 2¹⁶ samples: independent numbers, still in [0, 1).
         let d = Sampler::for_sample(3, 7, 9, 1 << 16).next_4d();
         assert!(d.iter().all(|v| (0.0..1.0).contains(v)));
+    }
+
+    #[test]
+    fn table_sobol_points_equal_the_crates() {
+        for seed in [0u32, 1, 0xdead_beef, u32::MAX] {
+            for index in 0..(1u32 << 16) {
+                let seed = seed ^ index.wrapping_mul(0x9e37_79b9);
+                assert_eq!(
+                    sobol_4d(index, seed),
+                    sobol_burley::sample_4d(index, 0, seed),
+                    "index {index}, seed {seed}"
+                );
+            }
+        }
     }
 
     #[test]
