@@ -4,6 +4,8 @@
 use std::path::Path;
 use std::process::Command;
 
+mod common;
+
 fn prism() -> Command {
     Command::new(env!("CARGO_BIN_EXE_prism"))
 }
@@ -377,44 +379,16 @@ fn temporary_files_of_a_killed_render_are_cleaned_up_by_the_next_one() {
     assert!(dir.path().join(".other.partial-999999999.exr").exists());
 }
 
-/// A PNG declaring `width` × `height` RGB texels with an empty zlib
-/// stream for data: a decompression bomb's declaration.
-fn declared_png(width: u32, height: u32) -> Vec<u8> {
-    let chunk = |kind: &[u8], body: &[u8]| {
-        let mut typed = kind.to_vec();
-        typed.extend_from_slice(body);
-        let mut c = 0xffff_ffffu32;
-        for &b in &typed {
-            c ^= b as u32;
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xedb8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        let mut out = (body.len() as u32).to_be_bytes().to_vec();
-        out.extend_from_slice(&typed);
-        out.extend_from_slice(&(!c).to_be_bytes());
-        out
-    };
-    let mut ihdr = width.to_be_bytes().to_vec();
-    ihdr.extend_from_slice(&height.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
-    png.extend(chunk(b"IHDR", &ihdr));
-    png.extend(chunk(b"IDAT", &[0x78, 1, 1, 0, 0, 0xff, 0xff, 0, 0, 0, 1]));
-    png.extend(chunk(b"IEND", &[]));
-    png
-}
-
 #[test]
 fn memory_bombs_are_refused_before_allocation() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // A 23000² texture declared in 57 bytes.
-    std::fs::write(d.join("bomb.png"), declared_png(23000, 23000)).unwrap();
+    std::fs::write(
+        d.join("bomb.png"),
+        common::assets::forged_png(23000, 23000, 2, 8, 0),
+    )
+    .unwrap();
     let textured = SCENE.replace(
         "[[shape]]\ntype = \"quad\"",
         "[materials.t]\ntype = \"diffuse\"\ntexture = \"bomb.png\"\n\n[[shape]]\nmaterial = \"t\"\ntype = \"quad\"",
@@ -439,41 +413,37 @@ fn memory_bombs_are_refused_before_allocation() {
         err.contains("(4096 segments) would need") && err.contains("already loaded"),
         "{err}"
     );
-    // A film and its output buffers beyond the budget, with the estimate's
-    // parts named.
+    // A film and its output buffers beyond the budget; then a render whose
+    // film fits but whose estimate does not, with the estimate's parts named.
     std::fs::write(d.join("ok.toml"), SCENE).unwrap();
-    let err = failing(
-        &[
-            "--max-memory",
-            "64M",
-            "render",
-            "ok.toml",
-            "--resolution",
+    for (resolution, buckets, expect) in [
+        (
             "2048x2048",
-        ],
-        d,
-    );
-    assert!(
-        err.contains("the film (2048x2048 pixels, 40 spectral buckets) would need"),
-        "{err}"
-    );
-    let err = failing(
-        &[
-            "--max-memory",
-            "64M",
-            "render",
-            "ok.toml",
-            "--resolution",
+            "40",
+            &["the film (2048x2048 pixels, 40 spectral buckets) would need"][..],
+        ),
+        (
             "512x512",
-            "--spectral-buckets",
             "4",
-        ],
-        d,
-    );
-    assert!(
-        err.contains("the render would need") && err.contains("film") && err.contains("writing"),
-        "{err}"
-    );
+            &["the render would need", "film", "writing"][..],
+        ),
+    ] {
+        let err = failing(
+            &[
+                "--max-memory",
+                "64M",
+                "render",
+                "ok.toml",
+                "--resolution",
+                resolution,
+            ]
+            .into_iter()
+            .chain(["--spectral-buckets", buckets])
+            .collect::<Vec<_>>(),
+            d,
+        );
+        assert!(expect.iter().all(|e| err.contains(e)), "{err}");
+    }
     // An EXR whose header declares 32768² pixels: `info` and `merge` refuse
     // it from the header.
     succeed(

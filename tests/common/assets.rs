@@ -175,6 +175,65 @@ pub fn png(width: u32, height: u32, rgba: &[u8]) -> Vec<u8> {
     out.into_inner()
 }
 
+/// A PNG whose header declares `width` × `height` (colour type and bit
+/// depth as given) with a little zlib data: a decompression bomb's shape.
+pub fn forged_png(width: u32, height: u32, colour: u8, depth: u8, rows: usize) -> Vec<u8> {
+    let data = zlib_stored(&vec![0u8; rows * 16]);
+    let chunk = |kind: &[u8], body: &[u8]| {
+        let mut c = (body.len() as u32).to_be_bytes().to_vec();
+        c.extend_from_slice(kind);
+        c.extend_from_slice(body);
+        let crc = crc32(&c[4..]);
+        c.extend_from_slice(&crc.to_be_bytes());
+        c
+    };
+    let mut ihdr = width.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[depth, colour, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(b"IDAT", &data));
+    png.extend(chunk(b"IEND", &[]));
+    png
+}
+
+/// A zlib stream of stored (uncompressed) blocks.
+pub fn zlib_stored(bytes: &[u8]) -> Vec<u8> {
+    let mut out = vec![0x78, 0x01];
+    let blocks: Vec<&[u8]> = bytes.chunks(65535).collect();
+    for (i, b) in blocks.iter().enumerate() {
+        out.push(u8::from(i + 1 == blocks.len()));
+        out.extend_from_slice(&(b.len() as u16).to_le_bytes());
+        out.extend_from_slice(&(!(b.len() as u16)).to_le_bytes());
+        out.extend_from_slice(b);
+    }
+    if blocks.is_empty() {
+        out.extend_from_slice(&[1, 0, 0, 0xff, 0xff]);
+    }
+    let (mut a, mut b) = (1u32, 0u32);
+    for &x in bytes {
+        a = (a + x as u32) % 65521;
+        b = (b + a) % 65521;
+    }
+    out.extend_from_slice(&((b << 16) | a).to_be_bytes());
+    out
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
 /// A quad from (-1, -1, 0) to (1, 1, 0) facing +z: positions, normals,
 /// texture coordinates (v = 0 at the top, y = +1) and two triangles.
 pub fn quad(b: &mut GltfBuilder, normals: bool) -> String {
