@@ -52,6 +52,12 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     // The geometry is read in parallel (obj_text); the material libraries
     // by tobj.
+    // Parsing holds the text, the vertices and up to 24 bytes a corner
+    // (a corner can be 6 bytes of text: `1/1/1 `): four times the file.
+    crate::memory::check(
+        &format!("reading the OBJ ({} bytes)", bytes.len()),
+        4 * bytes.len() as u64,
+    )?;
     let geometry = super::obj_text::parse(&bytes)?;
     drop(bytes);
     let mut asset = Asset::default();
