@@ -179,6 +179,9 @@ struct Chunk {
     /// Resolved corners.
     corners: Vec<[u32; 3]>,
     arities: Vec<u32>,
+    /// Where each face's corners start in `corners` (one more entry than
+    /// faces): pieces find their corners without summing arities.
+    face_starts: Vec<u32>,
     /// Before which face each statement came.
     statements: Vec<(usize, Statement)>,
     /// The first error: line within the chunk (1-based) and message.
@@ -286,7 +289,9 @@ impl Chunk {
     fn resolve(&mut self, before: [usize; 4], totals: [usize; 4]) -> Result<(), String> {
         let mut corners = Vec::with_capacity(self.raw.len());
         let mut raw = self.raw.iter();
+        self.face_starts = Vec::with_capacity(self.arities.len() + 1);
         for (&arity, &(seen, line)) in self.arities.iter().zip(&self.seen) {
+            self.face_starts.push(corners.len() as u32);
             for corner in raw.by_ref().take(arity as usize) {
                 let mut out = [NONE; 3];
                 for a in 0..3 {
@@ -309,6 +314,7 @@ impl Chunk {
                 corners.push(out);
             }
         }
+        self.face_starts.push(corners.len() as u32);
         self.corners = corners;
         self.raw = Vec::new();
         self.seen = Vec::new();
@@ -421,9 +427,8 @@ impl Sources<'_> {
             .iter()
             .map(|&(k, a, b)| {
                 let c = &self.chunks[k];
-                let first: usize = c.arities[..a].iter().map(|&n| n as usize).sum();
-                let count: usize = c.arities[a..b].iter().map(|&n| n as usize).sum();
-                (&c.arities[a..b], &c.corners[first..first + count])
+                let (first, end) = (c.face_starts[a] as usize, c.face_starts[b] as usize);
+                (&c.arities[a..b], &c.corners[first..end])
             })
             .collect();
         let all = || corner_ranges.iter().flat_map(|r| r.1.iter());
