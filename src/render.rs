@@ -250,6 +250,9 @@ impl MemoryEstimate {
     }
 }
 
+/// An AOV pixel's sums.
+const AOV_BYTES: u64 = std::mem::size_of::<crate::film::AovSums>() as u64;
+
 /// The process itself: code, tables, threads (measured: 40 MiB peak for a
 /// 256² Cornell Box).
 const PROCESS_BYTES: u64 = 48 << 20;
@@ -266,7 +269,7 @@ const SPLATS_PER_SAMPLE: u64 = 8;
 pub fn film_bytes(pixels: u64, buckets: u32, spectral: bool, aovs: bool) -> (u64, u64) {
     let per_pixel = std::mem::size_of::<crate::film::PixelSums>() as u64
         + 4 * buckets as u64
-        + if aovs { 56 } else { 0 };
+        + if aovs { AOV_BYTES } else { 0 };
     let writing = if spectral { 4 * buckets as u64 + 4 } else { 0 } + 12 + 12 + 8;
     (
         pixels.saturating_mul(per_pixel),
@@ -295,7 +298,7 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
         options.threads.unwrap_or_else(rayon::current_num_threads) as u64
     };
     let batch = region.min(tiles * (TILE_SIZE as u64).pow(2));
-    let pass = options.samples.len().div_ceil(16).clamp(1, 16) as u64;
+    let pass = largest_pass(scene, options) as u64;
     // Per sample: up to four spectral entries of 12 bytes; splats add XYZ.
     let mut per_sample = 4 * 12;
     if scene.integrator.splats() {
@@ -303,7 +306,7 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
         per_sample += SPLATS_PER_SAMPLE.min(depth) * (16 + 4 * 12);
     }
     let per_pixel = std::mem::size_of::<crate::film::PixelSums>() as u64
-        + if aovs { 56 } else { 0 }
+        + if aovs { AOV_BYTES } else { 0 }
         + per_sample * pass;
     MemoryEstimate {
         loading: scene.load_peak_bytes,
@@ -397,13 +400,7 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             .is_some_and(|c| c.load(Ordering::Relaxed))
     };
     let out_of_time = || options.time_budget.is_some_and(|t| start.elapsed() >= t);
-    let cap = if scene.integrator.prepares() || options.time_budget.is_some() {
-        // Photons are prepared per sample index; a time budget stops soonest
-        // after a pass of one sample.
-        1
-    } else {
-        spp.div_ceil(16).clamp(1, 16)
-    };
+    let cap = largest_pass(scene, options);
     let logging = options.progress && !std::io::stderr().is_terminal();
     let (mut passes, mut rel_mse, mut stop) = (0u32, None, Stop::Complete);
     let mut first = samples.start;
@@ -603,6 +600,17 @@ pub fn adaptive_targets(pilot: &Film, region: [u32; 4], spp: u32) -> Vec<u32> {
 
 /// Samples per pixel of pass `k`: 1, 1, 2, 4, 8, … up to `cap`. The first
 /// passes are quick, so a render stopped early soon has a complete image.
+/// Samples per pixel in a render's largest pass (passes double up to it).
+fn largest_pass(scene: &Scene, options: &RenderOptions) -> u32 {
+    if scene.integrator.prepares() || options.time_budget.is_some() {
+        // Photons are prepared per sample index; a time budget stops soonest
+        // after a pass of one sample.
+        1
+    } else {
+        (options.samples.len() as u32).div_ceil(16).clamp(1, 16)
+    }
+}
+
 fn pass_size(k: u32, cap: u32) -> u32 {
     let doubling = if k == 0 { 1 } else { 1u32 << (k - 1).min(16) };
     doubling.clamp(1, cap)

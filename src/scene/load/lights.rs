@@ -277,11 +277,8 @@ const MAX_MAP_SIDE: u32 = 16384;
 /// and Radiance HDR are linear; other images (PNG, JPEG, …) are sRGB-encoded.
 /// Refuses non-finite or negative radiance, naming the first such texel.
 fn read_radiance_image(path: &std::path::Path) -> Result<(u32, u32, Vec<Vec3>), String> {
+    // Both readers below open only regular files (see `input`).
     let name = path.display();
-    let meta = std::fs::metadata(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
-    if !meta.is_file() {
-        return Err(format!("{name}: not a regular file"));
-    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
