@@ -2,11 +2,13 @@
 //! tree with the binned surface area heuristic, then collapsed into a
 //! 4-wide tree (each node holds its four children's boxes side by side, so
 //! one SIMD slab test checks all four, and a ray visits half as many levels
-//! — half the cache misses on big meshes).
+//! — half the cache misses on big meshes). Leaves keep their triangles four
+//! to a packet, tested together (`triangle4`).
 
 use glam::{Vec3, Vec4};
 
-use super::triangle::{self, RayShear, TriangleHit};
+use super::triangle::{RayShear, TriangleHit};
+use super::triangle4::{self, RayShear4, Triangle4};
 use super::{gamma, Aabb, Ray};
 
 /// A binary build node of 32 bytes (the collapse reads them): two SIMD vectors, the box corners in xyz
@@ -46,7 +48,7 @@ impl Node {
 
 /// A 4-wide node of 128 bytes (two cache lines): the children's boxes as
 /// structure of arrays, and per child either a node index (`count == 0`)
-/// or a leaf's primitive range. Unused slots have empty boxes (+∞ on both
+/// or a leaf: its first packet and its number of triangles. Unused slots have empty boxes (+∞ on both
 /// sides), which no ray hits.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
@@ -59,6 +61,8 @@ struct WideNode {
 
 pub struct Bvh {
     nodes: Vec<WideNode>,
+    /// The leaves' triangles, four to a packet, leaf after leaf.
+    packets: Vec<Triangle4>,
     bounds: Aabb,
 }
 
@@ -66,7 +70,7 @@ pub struct Bvh {
 const BINS: usize = 16;
 /// Leaves never hold more than this many primitives unless they cannot be split.
 const MAX_LEAF: usize = 8;
-/// Cost of visiting a node relative to one triangle test.
+/// Cost of visiting a node relative to testing one packet of triangles.
 const TRAVERSAL_COST: f32 = 1.0;
 /// Subtrees of at least this many primitives build their halves in parallel.
 const PARALLEL_MIN: usize = 16 * 1024;
@@ -85,9 +89,18 @@ struct BuildPrim {
 }
 
 impl Bvh {
-    /// Builds over primitive bounds. Returns the hierarchy and the order in
-    /// which the primitives must be stored: leaf ranges index that order.
-    pub fn build(bounds: &[Aabb]) -> (Bvh, Vec<u32>) {
+    /// Builds over triangles. Returns the hierarchy and the order in which
+    /// the caller must store the triangles: hits name them by that order.
+    pub fn build(triangles: &[[Vec3; 3]]) -> (Bvh, Vec<u32>) {
+        let bounds: Vec<Aabb> = triangles.iter().map(|t| Aabb::of_points(t)).collect();
+        let (mut bvh, order) = Self::build_boxes(&bounds);
+        bvh.pack_leaves(|prim| triangles[order[prim] as usize]);
+        (bvh, order)
+    }
+
+    /// The tree over primitive bounds, leaves naming primitive ranges in
+    /// the returned order (not yet packets).
+    fn build_boxes(bounds: &[Aabb]) -> (Bvh, Vec<u32>) {
         let mut prims: Vec<BuildPrim> = bounds
             .iter()
             .enumerate()
@@ -103,6 +116,7 @@ impl Bvh {
             return (
                 Bvh {
                     nodes: Vec::new(),
+                    packets: Vec::new(),
                     bounds: Aabb::EMPTY,
                 },
                 order,
@@ -118,7 +132,38 @@ impl Bvh {
             min: root.min.truncate(),
             max: root.max.truncate(),
         };
-        (Bvh { nodes, bounds }, order)
+        let packets = Vec::new();
+        (
+            Bvh {
+                nodes,
+                packets,
+                bounds,
+            },
+            order,
+        )
+    }
+
+    /// Copies each leaf's triangles (`triangle(i)`: the i-th in build
+    /// order) into packets of four and points the leaf at its first packet.
+    fn pack_leaves(&mut self, triangle: impl Fn(usize) -> [Vec3; 3]) {
+        for node in &mut self.nodes {
+            for slot in 0..4 {
+                let count = node.count[slot] as usize;
+                if count == 0 {
+                    continue;
+                }
+                let first = node.child[slot] as usize;
+                node.child[slot] = self.packets.len() as u32;
+                for start in (first..first + count).step_by(4) {
+                    let n = (first + count - start).min(4);
+                    let mut tris = [[Vec3::ZERO; 3]; 4];
+                    for (k, t) in tris[..n].iter_mut().enumerate() {
+                        *t = triangle(start + k);
+                    }
+                    self.packets.push(Triangle4::new(&tris[..n], start as u32));
+                }
+            }
+        }
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -129,34 +174,33 @@ impl Bvh {
         self.nodes.len()
     }
 
+    /// Nodes and packets.
     pub fn size_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<WideNode>()
+            + self.packets.len() * std::mem::size_of::<Triangle4>()
     }
 
-    /// The closest hit among `tris` (stored in build order) within (0, ray.t_max).
-    pub fn intersect(&self, ray: &Ray, tris: &[[Vec3; 3]]) -> Option<(u32, TriangleHit)> {
-        self.traverse::<false>(ray, tris)
+    /// The closest hit within (0, ray.t_max): the triangle (in build order)
+    /// and where it is hit.
+    pub fn intersect(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
+        self.traverse::<false>(ray)
     }
 
     /// Whether anything lies on the ray within (0, ray.t_max).
-    pub fn occluded(&self, ray: &Ray, tris: &[[Vec3; 3]]) -> bool {
-        self.traverse::<true>(ray, tris).is_some()
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.traverse::<true>(ray).is_some()
     }
 
     /// Visits nodes front to back (children sorted by entry distance).
     /// With `ANY_HIT` it stops at the first hit.
     #[inline]
-    fn traverse<const ANY_HIT: bool>(
-        &self,
-        ray: &Ray,
-        tris: &[[Vec3; 3]],
-    ) -> Option<(u32, TriangleHit)> {
+    fn traverse<const ANY_HIT: bool>(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
         // A NaN in the ray would pass every slab test (SIMD min/max drop
         // NaN operands), empty slots included, and never end.
         if self.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return None;
         }
-        let shear = RayShear::new(ray);
+        let shear = RayShear4::new(&RayShear::new(ray));
         let inv = ray.dir.recip();
         let o = [
             Vec4::splat(ray.origin.x),
@@ -209,19 +253,27 @@ impl Bvh {
                     insert_by_distance(&mut nodes, &mut n, entry, |e| e.1);
                 }
             }
-            for &(start, count, t_enter) in &leaves[..nl] {
+            // Fetch the child nodes from memory while the leaves are tested
+            // (on big meshes, waiting for nodes is most of a ray's time).
+            for &(child, _) in &nodes[..n] {
+                prefetch(&self.nodes[child as usize]);
+            }
+            for &(first, count, t_enter) in &leaves[..nl] {
                 if t_enter > t_max {
                     continue;
                 }
-                let start = start as usize;
-                let leaf = &tris[start..start + count as usize];
-                for (prim, tri) in (start..).zip(leaf) {
-                    if let Some(hit) = triangle::intersect(&shear, tri, t_max) {
+                let packets = &self.packets[first as usize..][..count.div_ceil(4) as usize];
+                let mut left = count;
+                for packet in packets {
+                    let lanes = (1u32 << left.min(4)) - 1;
+                    left = left.saturating_sub(4);
+                    if let Some((lane, hit)) = triangle4::intersect(&shear, packet, lanes, t_max) {
+                        let prim = packet.prim(lane);
                         if ANY_HIT {
-                            return Some((prim as u32, hit));
+                            return Some((prim, hit));
                         }
                         t_max = hit.t;
-                        closest = Some((prim as u32, hit));
+                        closest = Some((prim, hit));
                     }
                 }
             }
@@ -248,6 +300,23 @@ impl Bvh {
             }
         }
     }
+}
+
+/// Asks for both cache lines of a node ahead of its use.
+#[inline(always)]
+fn prefetch(node: &WideNode) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let p = node as *const WideNode as *const i8;
+        // SAFETY: a prefetch only hints the cache; both lines lie in the node.
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(p.add(64));
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = node;
 }
 
 /// Inserts `entry` into the first `*len` entries of `list`, kept sorted
@@ -336,8 +405,10 @@ fn build_range(
     let n = prims.len();
     let extent = centroids.diagonal();
     let axis = largest_axis(extent);
-    if (n <= 2 || extent[axis] <= 0.0) && n <= u16::MAX as usize {
-        return index; // Leaf: nothing to split (or identical centroids).
+    if (n <= 4 || extent[axis] <= 0.0) && n <= u16::MAX as usize {
+        // Leaf: one packet (which the SAH never splits) or nothing to split
+        // (identical centroids).
+        return index;
     }
 
     let mid = if depth < SAH_MAX_DEPTH && extent[axis] > 0.0 {
@@ -507,7 +578,7 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option
                 continue;
             }
             let cost =
-                cnt as f32 * acc.surface_area() + right_count[i + 1] as f32 * right_area[i + 1];
+                packets(cnt) * acc.surface_area() + packets(right_count[i + 1]) * right_area[i + 1];
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, i + 1));
             }
@@ -515,8 +586,8 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option
     }
     let (cost, axis, left_bins) = best?;
     let area = bounds.surface_area();
-    let split_cost = TRAVERSAL_COST + if area > 0.0 { cost / area } else { n as f32 };
-    if n <= MAX_LEAF && split_cost >= n as f32 {
+    let split_cost = TRAVERSAL_COST + if area > 0.0 { cost / area } else { packets(n) };
+    if n <= MAX_LEAF && split_cost >= packets(n) {
         return None;
     }
     let mut mid = 0;
@@ -529,9 +600,15 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option
     (mid > 0 && mid < n).then_some(mid)
 }
 
+/// The packets of four that `n` triangles fill: what testing a leaf costs.
+fn packets(n: usize) -> f32 {
+    n.div_ceil(4) as f32
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::triangle;
 
     fn random_triangles(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
         let mut s = seed;
@@ -560,7 +637,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| Bvh::build(&bounds))
+                .install(|| Bvh::build_boxes(&bounds))
         };
         let (a, order_a) = build(1);
         let (b, order_b) = build(4);
@@ -584,8 +661,7 @@ mod tests {
     #[test]
     fn closest_hit_and_occlusion_match_brute_force() {
         let tris = random_triangles(3000, 7);
-        let bounds: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
-        let (bvh, order) = Bvh::build(&bounds);
+        let (bvh, order) = Bvh::build(&tris);
         let ordered: Vec<[Vec3; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
         let rays = random_triangles(500, 99);
         for r in rays {
@@ -597,7 +673,7 @@ mod tests {
                 .enumerate()
                 .filter_map(|(i, t)| triangle::intersect(&shear, t, ray.t_max).map(|h| (i, h)))
                 .min_by(|a, b| a.1.t.total_cmp(&b.1.t));
-            let got = bvh.intersect(&ray, &ordered);
+            let got = bvh.intersect(&ray);
             match (brute, got) {
                 (None, None) => {}
                 (Some((i, h)), Some((p, g))) => {
@@ -606,7 +682,7 @@ mod tests {
                 }
                 (b, g) => panic!("brute force {b:?} but BVH {g:?}"),
             }
-            assert_eq!(bvh.occluded(&ray, &ordered), brute.is_some());
+            assert_eq!(bvh.occluded(&ray), brute.is_some());
         }
     }
 
@@ -627,8 +703,7 @@ mod tests {
                 Vec3::new(9.0, 10.0, 9.0),
             ],
         ];
-        let bounds: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
-        let (bvh, order) = Bvh::build(&bounds);
+        let (bvh, order) = Bvh::build(&tris);
         let ordered: Vec<[Vec3; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
         let ray = Ray::new(
             Vec3::new(-1.0, -1.0, -1.0),
@@ -641,9 +716,9 @@ mod tests {
         assert!(tris
             .iter()
             .all(|t| triangle::intersect(&shear, t, ray.t_max).is_none()));
-        assert!(bvh.intersect(&ray, &ordered).is_none());
-        assert!(!bvh.occluded(&ray, &ordered));
-        let hit = bvh.intersect(&Ray::new(Vec3::new(5.2, 5.2, 4.0), Vec3::Z), &ordered);
+        assert!(bvh.intersect(&ray).is_none());
+        assert!(!bvh.occluded(&ray));
+        let hit = bvh.intersect(&Ray::new(Vec3::new(5.2, 5.2, 4.0), Vec3::Z));
         assert!(hit.is_some());
         // Rays with a NaN (a camera far from the origin once normalised a
         // zero direction) hit nothing instead of looping over empty slots.
@@ -657,8 +732,8 @@ mod tests {
                 dir: d,
                 t_max: f32::INFINITY,
             };
-            assert!(bvh.intersect(&ray, &ordered).is_none());
-            assert!(!bvh.occluded(&ray, &ordered));
+            assert!(bvh.intersect(&ray).is_none());
+            assert!(!bvh.occluded(&ray));
         }
     }
 
@@ -666,13 +741,12 @@ mod tests {
     fn empty_and_identical_primitives() {
         let (bvh, order) = Bvh::build(&[]);
         assert!(order.is_empty());
-        assert!(bvh.intersect(&Ray::new(Vec3::ZERO, Vec3::X), &[]).is_none());
+        assert!(bvh.intersect(&Ray::new(Vec3::ZERO, Vec3::X)).is_none());
         // Many triangles with the same centroid become one leaf, not a stack overflow.
         let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
         let tris = vec![t; 100];
-        let bounds: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
-        let (bvh, _) = Bvh::build(&bounds);
+        let (bvh, _) = Bvh::build(&tris);
         let ray = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
-        assert!(bvh.intersect(&ray, &tris).is_some());
+        assert!(bvh.intersect(&ray).is_some());
     }
 }

@@ -5,6 +5,7 @@ pub mod bvh;
 pub mod frame;
 pub mod offset;
 pub mod triangle;
+pub mod triangle4;
 
 use glam::Vec3;
 

@@ -197,8 +197,7 @@ impl Scene {
                 emitters.push(emission);
             }
         }
-        let bounds: Vec<Aabb> = triangles.iter().map(|t| Aabb::of_points(t)).collect();
-        let (bvh, order) = Bvh::build(&bounds);
+        let (bvh, order) = Bvh::build(&triangles);
         let triangles: Vec<[Vec3; 3]> = order.iter().map(|&i| triangles[i as usize]).collect();
         let mut shading: Vec<TriangleShading> =
             order.iter().map(|&i| shading[i as usize]).collect();
@@ -351,7 +350,7 @@ impl Scene {
     /// barycentrics, without the shading data: the query Embree's
     /// `rtcIntersect1` answers, for comparing traversal alone.
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, triangle::TriangleHit)> {
-        self.bvh.intersect(ray, &self.triangles)
+        self.bvh.intersect(ray)
     }
 
     /// The closest surface along `ray`, passing where cut-outs leave a
@@ -383,7 +382,7 @@ impl Scene {
     }
 
     fn closest_surface(&self, ray: &Ray) -> Option<SurfaceHit> {
-        let (prim, hit) = self.bvh.intersect(ray, &self.triangles)?;
+        let (prim, hit) = self.bvh.intersect(ray)?;
         let tri = &self.triangles[prim as usize];
         let info = &self.shading[prim as usize];
         let [b0, b1, b2] = hit.b;
@@ -430,7 +429,7 @@ impl Scene {
 
     pub fn occluded(&self, ray: &Ray) -> bool {
         if self.cutouts.is_empty() {
-            self.bvh.occluded(ray, &self.triangles)
+            self.bvh.occluded(ray)
         } else {
             self.intersect(ray).is_some()
         }
