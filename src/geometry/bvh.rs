@@ -662,7 +662,6 @@ mod tests {
     fn closest_hit_and_occlusion_match_brute_force() {
         let tris = random_triangles(3000, 7);
         let (bvh, order) = Bvh::build(&tris);
-        let ordered: Vec<[Vec3; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
         let rays = random_triangles(500, 99);
         for r in rays {
             let mut ray = Ray::new(r[0] * 1.3 - 2.0, (r[1] - r[0] * 1.3 + 2.0).normalize());
@@ -703,8 +702,7 @@ mod tests {
                 Vec3::new(9.0, 10.0, 9.0),
             ],
         ];
-        let (bvh, order) = Bvh::build(&tris);
-        let ordered: Vec<[Vec3; 3]> = order.iter().map(|&i| tris[i as usize]).collect();
+        let (bvh, _) = Bvh::build(&tris);
         let ray = Ray::new(
             Vec3::new(-1.0, -1.0, -1.0),
             Vec3::new(1.0, 2.0, 3.0).normalize(),
