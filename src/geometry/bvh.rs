@@ -1,9 +1,10 @@
 //! A bounding volume hierarchy over triangles: built top-down as a binary
-//! tree with the binned surface area heuristic, then collapsed into a
-//! 4-wide tree (each node holds its four children's boxes side by side, so
-//! one SIMD slab test checks all four, and a ray visits half as many levels
-//! — half the cache misses on big meshes). Leaves keep their triangles four
-//! to a packet, tested together (`triangle4`).
+//! tree with the binned surface area heuristic, then collapsed into an
+//! 8-wide tree (each node holds its children's boxes side by side, four to
+//! a SIMD slab test, and a ray visits a third as many levels as in the
+//! binary tree: on big meshes a ray's time is mostly spent waiting for
+//! nodes from memory, one level after another). Leaves keep their
+//! triangles four to a packet, tested together (`triangle4`).
 
 use glam::{Vec3, Vec4};
 
@@ -46,17 +47,23 @@ impl Node {
     }
 }
 
-/// A 4-wide node of 128 bytes (two cache lines): the children's boxes as
-/// structure of arrays, and per child either a node index (`count == 0`)
-/// or a leaf: its first packet and its number of triangles. Unused slots have empty boxes (+∞ on both
-/// sides), which no ray hits.
+/// Children per node: a multiple of four (each four share SIMD slab tests).
+const WIDTH: usize = 8;
+/// The groups of four children a node's boxes are stored in.
+const QUADS: usize = WIDTH / 4;
+
+/// A wide node: the children's boxes as structure of arrays, four to a
+/// group (`lo[q][axis]` lanes are children 4q..4q+3), and per child either
+/// a node index (`count == 0`) or a leaf: its first packet and its number
+/// of triangles. Unused slots have empty boxes (+∞ on both sides), which no
+/// ray hits.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct WideNode {
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
-    child: [u32; 4],
-    count: [u32; 4],
+    lo: [[Vec4; 3]; QUADS],
+    hi: [[Vec4; 3]; QUADS],
+    child: [u32; WIDTH],
+    count: [u32; WIDTH],
 }
 
 pub struct Bvh {
@@ -76,10 +83,10 @@ const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_MIN: usize = 16 * 1024;
 /// Past this depth the build splits at the median, which bounds the tree's depth.
 const SAH_MAX_DEPTH: usize = 40;
-/// Traversal stack entries: up to three per wide level, and a wide level
-/// per binary level at worst (SAH_MAX_DEPTH plus a median-split tree over
-/// 2³² primitives).
-const STACK_SIZE: usize = 3 * 80;
+/// Traversal stack entries: up to WIDTH − 1 per wide level, and a wide
+/// level per binary level at worst (SAH_MAX_DEPTH plus a median-split tree
+/// over 2³² primitives).
+const STACK_SIZE: usize = (WIDTH - 1) * 80;
 
 #[derive(Clone, Copy)]
 struct BuildPrim {
@@ -147,7 +154,7 @@ impl Bvh {
     /// order) into packets of four and points the leaf at its first packet.
     fn pack_leaves(&mut self, triangle: impl Fn(usize) -> [Vec3; 3]) {
         for node in &mut self.nodes {
-            for slot in 0..4 {
+            for slot in 0..WIDTH {
                 let count = node.count[slot] as usize;
                 if count == 0 {
                     continue;
@@ -219,28 +226,34 @@ impl Bvh {
         let mut current = 0u32;
         loop {
             let node = &self.nodes[current as usize];
-            let tx0 = (node.lo[0] - o[0]) * id[0];
-            let tx1 = (node.hi[0] - o[0]) * id[0];
-            let ty0 = (node.lo[1] - o[1]) * id[1];
-            let ty1 = (node.hi[1] - o[1]) * id[1];
-            let tz0 = (node.lo[2] - o[2]) * id[2];
-            let tz1 = (node.hi[2] - o[2]) * id[2];
-            let near = tx0
-                .min(tx1)
-                .max(ty0.min(ty1))
-                .max(tz0.min(tz1))
-                .max(Vec4::ZERO);
-            let far = (tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)) * far_scale)
-                .min(Vec4::splat(t_max));
-            // An empty slot's entry is +∞, which also "meets" an exit at +∞
-            // on an unbounded ray: finite entries only.
-            let mut mask = (near.cmple(far) & near.cmplt(Vec4::INFINITY)).bitmask();
-            let near = near.to_array();
+            let mut mask = 0u32;
+            let mut near = [0f32; WIDTH];
+            for q in 0..QUADS {
+                let (lo, hi) = (&node.lo[q], &node.hi[q]);
+                let tx0 = (lo[0] - o[0]) * id[0];
+                let tx1 = (hi[0] - o[0]) * id[0];
+                let ty0 = (lo[1] - o[1]) * id[1];
+                let ty1 = (hi[1] - o[1]) * id[1];
+                let tz0 = (lo[2] - o[2]) * id[2];
+                let tz1 = (hi[2] - o[2]) * id[2];
+                let entry = tx0
+                    .min(tx1)
+                    .max(ty0.min(ty1))
+                    .max(tz0.min(tz1))
+                    .max(Vec4::ZERO);
+                let exit = (tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)) * far_scale)
+                    .min(Vec4::splat(t_max));
+                // An empty slot's entry is +∞, which also "meets" an exit at
+                // +∞ on an unbounded ray: finite entries only.
+                let hit = entry.cmple(exit) & entry.cmplt(Vec4::INFINITY);
+                mask |= hit.bitmask() << (4 * q);
+                near[4 * q..4 * q + 4].copy_from_slice(&entry.to_array());
+            }
             // Leaves are tested at once, nearest first; hit nodes are sorted
             // nearest first.
-            let mut nodes = [(0u32, 0f32); 4];
+            let mut nodes = [(0u32, 0f32); WIDTH];
             let mut n = 0;
-            let mut leaves = [(0u32, 0u32, 0f32); 4];
+            let mut leaves = [(0u32, 0u32, 0f32); WIDTH];
             let mut nl = 0;
             while mask != 0 {
                 let i = mask.trailing_zeros() as usize;
@@ -302,28 +315,29 @@ impl Bvh {
     }
 }
 
-/// Asks for both cache lines of a node ahead of its use.
+/// Asks for the cache lines of a node or packet ahead of its use.
 #[inline(always)]
-fn prefetch(node: &WideNode) {
+fn prefetch<T>(item: &T) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = node as *const WideNode as *const i8;
-        // SAFETY: a prefetch only hints the cache; both lines lie in the node.
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.add(64));
+        let p = item as *const T as *const i8;
+        let end = std::mem::size_of::<T>() - 1;
+        // The last byte's line too: a packet may straddle one more line.
+        for offset in (0..end).step_by(64).chain([end]) {
+            // SAFETY: a prefetch only hints the cache; the byte is the item's.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(offset)) };
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = node;
+    let _ = item;
 }
 
 /// Inserts `entry` into the first `*len` entries of `list`, kept sorted
-/// nearest first by `distance` (insertion sort: at most four).
+/// nearest first by `distance` (insertion sort: at most WIDTH).
 #[inline]
 fn insert_by_distance<T: Copy>(
-    list: &mut [T; 4],
+    list: &mut [T; WIDTH],
     len: &mut usize,
     entry: T,
     distance: impl Fn(&T) -> f32,
@@ -338,9 +352,9 @@ fn insert_by_distance<T: Copy>(
     *len += 1;
 }
 
-/// Turns the binary subtree at `index` into 4-wide nodes; returns the index
+/// Turns the binary subtree at `index` into wide nodes; returns the index
 /// of the wide node made for it. Each wide node takes the binary node's
-/// grandchildren, opening the child with the largest surface first.
+/// descendants down to WIDTH of them, opening the largest surface first.
 fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
     let children = |i: usize| -> [usize; 2] { [i + 1, binary[i].offset() as usize] };
     let is_leaf = |i: usize| binary[i].count() > 0;
@@ -356,7 +370,7 @@ fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
     } else {
         children(index).to_vec()
     };
-    while slots.len() < 4 {
+    while slots.len() < WIDTH {
         let open = slots
             .iter()
             .enumerate()
@@ -369,10 +383,10 @@ fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
     }
     let me = wide.len();
     wide.push(WideNode {
-        lo: [Vec4::INFINITY; 3],
-        hi: [Vec4::INFINITY; 3],
-        child: [0; 4],
-        count: [0; 4],
+        lo: [[Vec4::INFINITY; 3]; QUADS],
+        hi: [[Vec4::INFINITY; 3]; QUADS],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
     });
     for (k, &c) in slots.iter().enumerate() {
         let n = &binary[c];
@@ -383,8 +397,8 @@ fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
         };
         let node = &mut wide[me];
         for axis in 0..3 {
-            node.lo[axis][k] = n.min[axis];
-            node.hi[axis][k] = n.max[axis];
+            node.lo[k / 4][axis][k % 4] = n.min[axis];
+            node.hi[k / 4][axis][k % 4] = n.max[axis];
         }
         node.child[k] = child;
         node.count[k] = count;
@@ -645,14 +659,14 @@ mod tests {
         assert_eq!(a.node_count(), b.node_count());
         for (x, y) in a.nodes.iter().zip(&b.nodes) {
             assert_eq!((x.child, x.count), (y.child, y.count));
-            for axis in 0..3 {
+            for (q, axis) in (0..QUADS).flat_map(|q| (0..3).map(move |a| (q, a))) {
                 assert_eq!(
-                    x.lo[axis].to_array().map(f32::to_bits),
-                    y.lo[axis].to_array().map(f32::to_bits)
+                    x.lo[q][axis].to_array().map(f32::to_bits),
+                    y.lo[q][axis].to_array().map(f32::to_bits)
                 );
                 assert_eq!(
-                    x.hi[axis].to_array().map(f32::to_bits),
-                    y.hi[axis].to_array().map(f32::to_bits)
+                    x.hi[q][axis].to_array().map(f32::to_bits),
+                    y.hi[q][axis].to_array().map(f32::to_bits)
                 );
             }
         }
@@ -687,7 +701,7 @@ mod tests {
 
     #[test]
     fn unbounded_rays_never_enter_empty_slots() {
-        // Three triangles: the root has fewer than four children, and a ray
+        // Three triangles: the root has fewer than WIDTH children, and a ray
         // with a positive direction and no t_max must still terminate.
         let tris = [
             [Vec3::ZERO, Vec3::X, Vec3::Y],
