@@ -8,6 +8,7 @@
 
 use glam::{Vec3, Vec4};
 
+use super::huge_pages::HugeArray;
 use super::triangle::{RayShear, TriangleHit};
 use super::triangle4::{self, RayShear4, Triangle4};
 use super::{gamma, Aabb, Ray};
@@ -67,9 +68,9 @@ struct WideNode {
 }
 
 pub struct Bvh {
-    nodes: Vec<WideNode>,
+    nodes: HugeArray<WideNode>,
     /// The leaves' triangles, four to a packet, leaf after leaf.
-    packets: Vec<Triangle4>,
+    packets: HugeArray<Triangle4>,
     bounds: Aabb,
 }
 
@@ -100,77 +101,14 @@ impl Bvh {
     /// the caller must store the triangles: hits name them by that order.
     pub fn build(triangles: &[[Vec3; 3]]) -> (Bvh, Vec<u32>) {
         let bounds: Vec<Aabb> = triangles.iter().map(|t| Aabb::of_points(t)).collect();
-        let (mut bvh, order) = Self::build_boxes(&bounds);
-        bvh.pack_leaves(|prim| triangles[order[prim] as usize]);
-        (bvh, order)
-    }
-
-    /// The tree over primitive bounds, leaves naming primitive ranges in
-    /// the returned order (not yet packets).
-    fn build_boxes(bounds: &[Aabb]) -> (Bvh, Vec<u32>) {
-        let mut prims: Vec<BuildPrim> = bounds
-            .iter()
-            .enumerate()
-            .map(|(i, b)| BuildPrim {
-                bounds: *b,
-                centroid: b.centroid(),
-                index: i as u32,
-            })
-            .collect();
-        let order: Vec<u32>;
-        if prims.is_empty() {
-            order = Vec::new();
-            return (
-                Bvh {
-                    nodes: Vec::new(),
-                    packets: Vec::new(),
-                    bounds: Aabb::EMPTY,
-                },
-                order,
-            );
-        }
-        let mut binary = Vec::with_capacity(2 * bounds.len());
-        build_range(&mut prims, 0, 0, &mut binary);
-        order = prims.iter().map(|p| p.index).collect();
-        let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
-        collapse(&binary, 0, &mut nodes);
-        let root = &binary[0];
-        let bounds = Aabb {
-            min: root.min.truncate(),
-            max: root.max.truncate(),
+        let (mut nodes, bounds, order) = build_boxes(&bounds);
+        let packets = pack_leaves(&mut nodes, |prim| triangles[order[prim] as usize]);
+        let bvh = Bvh {
+            nodes: HugeArray::from_slice(&nodes),
+            packets: HugeArray::from_slice(&packets),
+            bounds,
         };
-        let packets = Vec::new();
-        (
-            Bvh {
-                nodes,
-                packets,
-                bounds,
-            },
-            order,
-        )
-    }
-
-    /// Copies each leaf's triangles (`triangle(i)`: the i-th in build
-    /// order) into packets of four and points the leaf at its first packet.
-    fn pack_leaves(&mut self, triangle: impl Fn(usize) -> [Vec3; 3]) {
-        for node in &mut self.nodes {
-            for slot in 0..WIDTH {
-                let count = node.count[slot] as usize;
-                if count == 0 {
-                    continue;
-                }
-                let first = node.child[slot] as usize;
-                node.child[slot] = self.packets.len() as u32;
-                for start in (first..first + count).step_by(4) {
-                    let n = (first + count - start).min(4);
-                    let mut tris = [[Vec3::ZERO; 3]; 4];
-                    for (k, t) in tris[..n].iter_mut().enumerate() {
-                        *t = triangle(start + k);
-                    }
-                    self.packets.push(Triangle4::new(&tris[..n], start as u32));
-                }
-            }
-        }
+        (bvh, order)
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -313,6 +251,59 @@ impl Bvh {
             }
         }
     }
+}
+
+/// The wide tree over primitive bounds, its bounds, and the order of the
+/// primitives that its leaves' ranges index (not yet packets).
+fn build_boxes(bounds: &[Aabb]) -> (Vec<WideNode>, Aabb, Vec<u32>) {
+    let mut prims: Vec<BuildPrim> = bounds
+        .iter()
+        .enumerate()
+        .map(|(i, b)| BuildPrim {
+            bounds: *b,
+            centroid: b.centroid(),
+            index: i as u32,
+        })
+        .collect();
+    if prims.is_empty() {
+        return (Vec::new(), Aabb::EMPTY, Vec::new());
+    }
+    let mut binary = Vec::with_capacity(2 * bounds.len());
+    build_range(&mut prims, 0, 0, &mut binary);
+    let order = prims.iter().map(|p| p.index).collect();
+    let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
+    collapse(&binary, 0, &mut nodes);
+    let root = &binary[0];
+    let bounds = Aabb {
+        min: root.min.truncate(),
+        max: root.max.truncate(),
+    };
+    (nodes, bounds, order)
+}
+
+/// Copies each leaf's triangles (`triangle(i)`: the i-th in build order)
+/// into packets of four and points the leaf at its first packet.
+fn pack_leaves(nodes: &mut [WideNode], triangle: impl Fn(usize) -> [Vec3; 3]) -> Vec<Triangle4> {
+    let mut packets = Vec::new();
+    for node in nodes {
+        for slot in 0..WIDTH {
+            let count = node.count[slot] as usize;
+            if count == 0 {
+                continue;
+            }
+            let first = node.child[slot] as usize;
+            node.child[slot] = packets.len() as u32;
+            for start in (first..first + count).step_by(4) {
+                let n = (first + count - start).min(4);
+                let mut tris = [[Vec3::ZERO; 3]; 4];
+                for (k, t) in tris[..n].iter_mut().enumerate() {
+                    *t = triangle(start + k);
+                }
+                packets.push(Triangle4::new(&tris[..n], start as u32));
+            }
+        }
+    }
+    packets
 }
 
 /// Asks for the cache lines of a node or packet ahead of its use.
@@ -651,13 +642,13 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| Bvh::build_boxes(&bounds))
+                .install(|| build_boxes(&bounds))
         };
-        let (a, order_a) = build(1);
-        let (b, order_b) = build(4);
+        let (a, _, order_a) = build(1);
+        let (b, _, order_b) = build(4);
         assert_eq!(order_a, order_b);
-        assert_eq!(a.node_count(), b.node_count());
-        for (x, y) in a.nodes.iter().zip(&b.nodes) {
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
             assert_eq!((x.child, x.count), (y.child, y.count));
             for (q, axis) in (0..QUADS).flat_map(|q| (0..3).map(move |a| (q, a))) {
                 assert_eq!(

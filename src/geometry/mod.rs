@@ -3,6 +3,7 @@
 
 pub mod bvh;
 pub mod frame;
+pub mod huge_pages;
 pub mod offset;
 pub mod triangle;
 pub mod triangle4;

@@ -1,0 +1,115 @@
+//! A fixed array for the BVH's nodes and packets that the kernel may back
+//! with 2 MiB pages. Rays on big meshes visit nodes and packets all over
+//! tens of megabytes; with 4 KiB pages nearly every visit also misses the
+//! TLB (a page walk before the cache miss itself). Arrays of at least 2 MiB
+//! are aligned to 2 MiB and advised as huge pages (Linux, where transparent
+//! huge pages are "always" or "madvise") before they are first written.
+
+use std::alloc::{self, Layout};
+use std::ops::Deref;
+use std::ptr::NonNull;
+
+/// The huge page size on x86-64 and most AArch64 kernels.
+const HUGE_PAGE: usize = 2 << 20;
+
+pub struct HugeArray<T: Copy> {
+    ptr: NonNull<T>,
+    len: usize,
+    layout: Layout,
+}
+
+// SAFETY: the array owns its items like a Box<[T]> does.
+unsafe impl<T: Copy + Send> Send for HugeArray<T> {}
+unsafe impl<T: Copy + Sync> Sync for HugeArray<T> {}
+
+impl<T: Copy> HugeArray<T> {
+    pub fn from_slice(items: &[T]) -> Self {
+        let size = std::mem::size_of_val(items);
+        if size == 0 {
+            return Self {
+                ptr: NonNull::dangling(),
+                len: items.len(),
+                layout: Layout::new::<()>(),
+            };
+        }
+        let align = if size >= HUGE_PAGE {
+            HUGE_PAGE
+        } else {
+            std::mem::align_of::<T>()
+        };
+        let layout = Layout::from_size_align(size, align).expect("a slice's size fits a layout");
+        // SAFETY: the layout has a non-zero size.
+        let raw = unsafe { alloc::alloc(layout) };
+        let Some(ptr) = NonNull::new(raw as *mut T) else {
+            alloc::handle_alloc_error(layout)
+        };
+        if align == HUGE_PAGE {
+            advise_huge(raw, size);
+        }
+        // SAFETY: `ptr` holds `size` bytes, aligned for T, apart from `items`.
+        unsafe { std::ptr::copy_nonoverlapping(items.as_ptr(), ptr.as_ptr(), items.len()) };
+        Self {
+            ptr,
+            len: items.len(),
+            layout,
+        }
+    }
+}
+
+/// Only a hint: where it is refused the array keeps small pages.
+fn advise_huge(start: *mut u8, size: usize) {
+    #[cfg(target_os = "linux")]
+    // SAFETY: the range lies in one allocation (rounded down to whole huge
+    // pages from its 2 MiB-aligned start); madvise only changes how the
+    // kernel backs it.
+    unsafe {
+        libc::madvise(
+            start as *mut libc::c_void,
+            size / HUGE_PAGE * HUGE_PAGE,
+            libc::MADV_HUGEPAGE,
+        );
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (start, size);
+}
+
+impl<T: Copy> Deref for HugeArray<T> {
+    type Target = [T];
+
+    fn deref(&self) -> &[T] {
+        // SAFETY: `ptr` holds `len` initialised items (or is dangling for none).
+        unsafe { std::slice::from_raw_parts(self.ptr.as_ptr(), self.len) }
+    }
+}
+
+impl<T: Copy> Drop for HugeArray<T> {
+    fn drop(&mut self) {
+        if self.layout.size() > 0 {
+            // SAFETY: allocated in `from_slice` with this layout.
+            unsafe { alloc::dealloc(self.ptr.as_ptr() as *mut u8, self.layout) };
+        }
+    }
+}
+
+impl<T: Copy> Default for HugeArray<T> {
+    fn default() -> Self {
+        Self::from_slice(&[])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn holds_what_it_was_given() {
+        for n in [0usize, 1, 1000, (HUGE_PAGE / 8) + 3] {
+            let items: Vec<u64> = (0..n as u64).map(|i| i * 7 + 1).collect();
+            let array = HugeArray::from_slice(&items);
+            assert_eq!(&array[..], &items[..]);
+            if n * 8 >= HUGE_PAGE {
+                assert_eq!(array.as_ptr() as usize % HUGE_PAGE, 0);
+            }
+        }
+    }
+}
