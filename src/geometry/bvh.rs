@@ -104,8 +104,8 @@ impl Bvh {
         let (mut nodes, bounds, order) = build_boxes(&bounds);
         let packets = pack_leaves(&mut nodes, |prim| triangles[order[prim] as usize]);
         let bvh = Bvh {
-            nodes: HugeArray::from_slice(&nodes),
-            packets: HugeArray::from_slice(&packets),
+            nodes: HugeArray::from_vec(nodes),
+            packets: HugeArray::from_vec(packets),
             bounds,
         };
         (bvh, order)

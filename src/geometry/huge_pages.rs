@@ -23,6 +23,12 @@ unsafe impl<T: Copy + Send> Send for HugeArray<T> {}
 unsafe impl<T: Copy + Sync> Sync for HugeArray<T> {}
 
 impl<T: Copy> HugeArray<T> {
+    /// Moves `items` over (freeing them at once, so that a scene's arrays
+    /// are not all held twice at the end of its build).
+    pub fn from_vec(items: Vec<T>) -> Self {
+        Self::from_slice(&items)
+    }
+
     pub fn from_slice(items: &[T]) -> Self {
         let size = std::mem::size_of_val(items);
         if size == 0 {
