@@ -349,12 +349,14 @@ pub struct Film {
 impl Film {
     pub fn new(width: u32, height: u32, layout: SpectralLayout) -> Self {
         let n = (width * height) as usize;
+        let mut buckets = vec![0.0; n * layout.count as usize];
+        crate::geometry::huge_pages::advise(&mut buckets);
         Self {
             width,
             height,
             layout,
             pixels: vec![PixelSums::default(); n],
-            buckets: vec![0.0; n * layout.count as usize],
+            buckets,
             aovs: Vec::new(),
         }
     }

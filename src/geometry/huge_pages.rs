@@ -62,6 +62,18 @@ impl<T: Copy> HugeArray<T> {
     }
 }
 
+/// Advises the whole 2 MiB pages inside `items` as huge pages: for memory
+/// not yet touched (such as a zeroed Vec fresh from the allocator), whose
+/// first writes would otherwise fault once every 4 KiB.
+pub fn advise<T>(items: &mut [T]) {
+    let start = items.as_mut_ptr() as usize;
+    let end = start + std::mem::size_of_val(items);
+    let first = start.next_multiple_of(HUGE_PAGE);
+    if end > first + HUGE_PAGE {
+        advise_huge(first as *mut u8, end - first);
+    }
+}
+
 /// Only a hint: where it is refused the array keeps small pages.
 fn advise_huge(start: *mut u8, size: usize) {
     #[cfg(target_os = "linux")]
