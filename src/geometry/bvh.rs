@@ -306,22 +306,21 @@ fn pack_leaves(nodes: &mut [WideNode], triangle: impl Fn(usize) -> [Vec3; 3]) ->
     packets
 }
 
-/// Asks for the cache lines of a node or packet ahead of its use.
+/// Asks for every cache line of a node ahead of its use.
 #[inline(always)]
-fn prefetch<T>(item: &T) {
+fn prefetch(node: &WideNode) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = item as *const T as *const i8;
-        let end = std::mem::size_of::<T>() - 1;
-        // The last byte's line too: a packet may straddle one more line.
-        for offset in (0..end).step_by(64).chain([end]) {
-            // SAFETY: a prefetch only hints the cache; the byte is the item's.
+        let p = node as *const WideNode as *const i8;
+        // Nodes are aligned to their 64-byte lines.
+        for offset in (0..std::mem::size_of::<WideNode>()).step_by(64) {
+            // SAFETY: a prefetch only hints the cache; the line is the node's.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(offset)) };
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = item;
+    let _ = node;
 }
 
 /// Inserts `entry` into the first `*len` entries of `list`, kept sorted

@@ -1,9 +1,10 @@
-//! A fixed array for the BVH's nodes and packets that the kernel may back
-//! with 2 MiB pages. Rays on big meshes visit nodes and packets all over
-//! tens of megabytes; with 4 KiB pages nearly every visit also misses the
-//! TLB (a page walk before the cache miss itself). Arrays of at least 2 MiB
-//! are aligned to 2 MiB and advised as huge pages (Linux, where transparent
-//! huge pages are "always" or "madvise") before they are first written.
+//! Memory the kernel may back with 2 MiB pages (Linux, where transparent
+//! huge pages are "always" or "madvise"). `HugeArray` holds the BVH's nodes
+//! and packets: rays on big meshes visit them all over tens of megabytes,
+//! and with 4 KiB pages nearly every visit also misses the TLB (a page walk
+//! before the cache miss itself). `advise` serves big buffers not yet
+//! touched, such as the film's sums, whose first writes would otherwise
+//! fault once every 4 KiB.
 
 use std::alloc::{self, Layout};
 use std::ops::Deref;
@@ -23,13 +24,14 @@ unsafe impl<T: Copy + Send> Send for HugeArray<T> {}
 unsafe impl<T: Copy + Sync> Sync for HugeArray<T> {}
 
 impl<T: Copy> HugeArray<T> {
-    /// Moves `items` over (freeing them at once, so that a scene's arrays
-    /// are not all held twice at the end of its build).
+    /// Moves `items` over; their vector is freed once they are copied, so
+    /// that a build does not hold both longer than it must. Arrays of at
+    /// least 2 MiB are aligned to 2 MiB and advised before their first write.
     pub fn from_vec(items: Vec<T>) -> Self {
         Self::from_slice(&items)
     }
 
-    pub fn from_slice(items: &[T]) -> Self {
+    fn from_slice(items: &[T]) -> Self {
         let size = std::mem::size_of_val(items);
         if size == 0 {
             return Self {
@@ -62,14 +64,13 @@ impl<T: Copy> HugeArray<T> {
     }
 }
 
-/// Advises the whole 2 MiB pages inside `items` as huge pages: for memory
-/// not yet touched (such as a zeroed Vec fresh from the allocator), whose
-/// first writes would otherwise fault once every 4 KiB.
+/// Advises the whole 2 MiB pages inside `items` as huge pages; only memory
+/// not yet touched (such as a zeroed Vec fresh from the allocator) gains.
 pub fn advise<T>(items: &mut [T]) {
     let start = items.as_mut_ptr() as usize;
     let end = start + std::mem::size_of_val(items);
     let first = start.next_multiple_of(HUGE_PAGE);
-    if end > first + HUGE_PAGE {
+    if end >= first + HUGE_PAGE {
         advise_huge(first as *mut u8, end - first);
     }
 }
@@ -106,12 +107,6 @@ impl<T: Copy> Drop for HugeArray<T> {
             // SAFETY: allocated in `from_slice` with this layout.
             unsafe { alloc::dealloc(self.ptr.as_ptr() as *mut u8, self.layout) };
         }
-    }
-}
-
-impl<T: Copy> Default for HugeArray<T> {
-    fn default() -> Self {
-        Self::from_slice(&[])
     }
 }
 
