@@ -20,7 +20,7 @@ use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::cie::{ColourMatching, Observer};
-use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths, Spectrum};
+use crate::spectrum::{cie, SampledSpectrum, Spectrum};
 
 /// One sample's AOVs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -54,7 +54,7 @@ impl Aovs {
     /// The AOVs of a camera ray through film position (`x`, `y`).
     pub fn first_hit(&self, scene: &Scene, x: f32, y: f32, sampler: &mut Sampler) -> AovSample {
         let [u_lambda, uc, u0, u1] = sampler.next_4d();
-        let mut wl = SampledWavelengths::sample_visible(u_lambda);
+        let mut wl = scene.wavelengths.sample(u_lambda);
         let mut ray = camera_ray(scene, x, y, sampler);
         let origin = ray.origin;
         let mut counters = PathCounters::default();

@@ -313,7 +313,7 @@ impl Bdpt {
         let u_camera_bounce = sampler.next_4d();
         let u_light_bounce = sampler.next_4d();
         let u_direct = sampler.next_4d();
-        let mut wl = SampledWavelengths::sample_visible(u_lambda);
+        let mut wl = scene.wavelengths.sample(u_lambda);
         SUBPATHS.with(|cell| {
             let mut guard = cell.borrow_mut();
             let (camera_path, light_path) = &mut *guard;

@@ -54,7 +54,7 @@ impl LightTracer {
     ) -> PixelSample {
         let [u_lambda, u_light, p0, p1] = sampler.next_4d();
         let [d0, d1, _, _] = sampler.next_4d();
-        let mut wl = SampledWavelengths::sample_visible(u_lambda);
+        let mut wl = scene.wavelengths.sample(u_lambda);
         let none = |wl| PixelSample {
             l: SampledSpectrum::ZERO,
             wl,

@@ -325,7 +325,7 @@ impl Integrator {
         match self {
             Integrator::Path(p) => {
                 let [dx, dy, u_lambda, _] = sampler.next_4d();
-                let mut wl = SampledWavelengths::sample_visible(u_lambda);
+                let mut wl = scene.wavelengths.sample(u_lambda);
                 let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
                 let l = p.radiance(scene, ray, &mut wl, sampler, counters);
                 PixelSample { l, wl }

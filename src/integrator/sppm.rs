@@ -312,7 +312,7 @@ impl Sppm {
     ) {
         let [u_lambda, u_light, p0, p1] = sampler.next_4d();
         let [d0, d1, _, _] = sampler.next_4d();
-        let mut wl = SampledWavelengths::sample_visible(u_lambda);
+        let mut wl = scene.wavelengths.sample(u_lambda);
         let Some(start) = light_path::start(scene, u_light, (p0, p1), (d0, d1), &wl, counters)
         else {
             return;
@@ -365,7 +365,7 @@ impl Sppm {
         counters: &mut PathCounters,
     ) -> PixelSample {
         let [dx, dy, u_lambda, _] = sampler.next_4d();
-        let mut wl = SampledWavelengths::sample_visible(u_lambda);
+        let mut wl = scene.wavelengths.sample(u_lambda);
         let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
         let tracer = PathTracer {
             max_depth: self.max_depth,

@@ -10,7 +10,7 @@ use super::{Emitter, LightLeSample, LightLiSample, LightPoint};
 use crate::geometry::gamma;
 use crate::geometry::Frame;
 use crate::material::cosine_hemisphere;
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
 #[derive(Clone, Debug)]
 pub struct AreaLight {
@@ -50,6 +50,12 @@ impl AreaLight {
     }
 
     /// Relative power for light selection: area · emitting sides · mean radiance.
+    /// The emitted spectrum (its shape, for choosing wavelengths; a
+    /// texture's colour is left out).
+    pub fn spectrum(&self) -> &Spectrum {
+        &self.emitter.spectrum
+    }
+
     pub fn power(&self) -> f64 {
         self.area as f64 * if self.two_sided { 2.0 } else { 1.0 } * self.emitter.mean()
     }

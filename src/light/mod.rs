@@ -259,6 +259,19 @@ impl Light {
         }
     }
 
+    /// The shape of the light's emission over wavelength, where one
+    /// spectrum describes it; None where it varies over the light (images,
+    /// the sky model).
+    pub fn spectrum(&self) -> Option<&Spectrum> {
+        match self {
+            Light::Area(l) => Some(l.spectrum()),
+            Light::Point(l) => Some(l.spectrum()),
+            Light::Directional(l) => Some(l.spectrum()),
+            Light::Environment(l) => Some(l.spectrum()),
+            Light::EnvironmentMap(_) | Light::Sky(_) | Light::Sun(_) => None,
+        }
+    }
+
     #[inline]
     pub fn sample_li(
         &self,
@@ -404,6 +417,46 @@ impl LightSet {
         self.selection.pmf(light)
     }
 
+    /// The lights' emission at each of `lambdas`, relative to its mean over
+    /// the spectrum, averaged over the lights weighted by their power (a
+    /// light without one spectrum counts as flat); all 1 without lights.
+    pub fn relative_emission(&self, lambdas: &[f32]) -> Vec<f64> {
+        // Power per distinct spectrum: an emissive mesh's triangles share one.
+        let mut by_spectrum: Vec<(Option<&Spectrum>, f64)> = Vec::new();
+        let mut index = std::collections::HashMap::new();
+        for light in &self.lights {
+            let power = light.power();
+            if !(power > 0.0) {
+                continue;
+            }
+            let spectrum = light.spectrum();
+            let key = spectrum.map_or(std::ptr::null(), |s| s as *const Spectrum);
+            let k = *index.entry(key).or_insert_with(|| {
+                by_spectrum.push((spectrum, 0.0));
+                by_spectrum.len() - 1
+            });
+            by_spectrum[k].1 += power;
+        }
+        let mut sum = vec![0.0; lambdas.len()];
+        let mut total = 0.0;
+        for (spectrum, power) in by_spectrum {
+            let mean = spectrum.map_or(1.0, |s| s.average(LAMBDA_MIN, LAMBDA_MAX) as f64);
+            if !(mean > 0.0) {
+                continue;
+            }
+            for (out, &lambda) in sum.iter_mut().zip(lambdas) {
+                let e = spectrum.map_or(1.0, |s| s.eval(lambda).max(0.0) as f64);
+                *out += power * e / mean;
+            }
+            total += power;
+        }
+        if total > 0.0 {
+            sum.iter().map(|s| s / total).collect()
+        } else {
+            vec![1.0; lambdas.len()]
+        }
+    }
+
     /// The lights at infinity, with their indices.
     #[inline]
     pub fn infinite(&self) -> impl Iterator<Item = (usize, &Light)> {
@@ -456,6 +509,41 @@ mod tests {
         assert_eq!(set.choose(0.99).unwrap().0, 2);
         let dark = LightSet::new(vec![area_light(unit_triangle(0.0), emitter(0.0), false)]);
         assert!(dark.is_empty() && dark.choose(0.5).is_none());
+    }
+
+    #[test]
+    fn relative_emission_weights_each_spectrum_by_its_lights_power() {
+        // A ramp lamp (400-700 nm, mean 0.5 over that range) on two
+        // triangles that share it, and a flat one with three times their
+        // power on a third.
+        let ramp = std::sync::Arc::new(Emitter {
+            spectrum: Spectrum::Table(crate::spectrum::TabulatedSpectrum::new(
+                vec![400.0, 700.0],
+                vec![0.0, 1.0],
+            )),
+            texture: None,
+        });
+        let shared = |z| Light::Area(AreaLight::new(unit_triangle(z), None, ramp.clone(), false));
+        let mean = ramp.spectrum.average(LAMBDA_MIN, LAMBDA_MAX) as f64;
+        let flat_power = 3.0 * 2.0 * mean;
+        let set = LightSet::new(vec![
+            shared(0.0),
+            shared(1.0),
+            area_light(unit_triangle(2.0), emitter(flat_power as f32), false),
+        ]);
+        let e = set.relative_emission(&[380.0, 550.0, 650.0]);
+        // A quarter of the power is the ramp's, relative to its mean.
+        let expect = |ramp_value: f64| 0.25 * ramp_value / mean + 0.75;
+        for (got, want) in e
+            .iter()
+            .zip([expect(0.0), expect(0.5), expect(250.0 / 300.0)])
+        {
+            assert!((got - want).abs() < 1e-4, "{got} vs {want}");
+        }
+        assert_eq!(
+            LightSet::new(Vec::new()).relative_emission(&[500.0]),
+            vec![1.0]
+        );
     }
 
     #[test]

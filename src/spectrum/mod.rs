@@ -10,7 +10,7 @@ mod wavelengths;
 pub use spectra::{RgbSpectrum, Spectrum, TabulatedSpectrum};
 pub use wavelengths::{
     sample_visible_wavelength, visible_wavelength_pdf, SampledSpectrum, SampledWavelengths,
-    N_WAVELENGTHS,
+    WavelengthDistribution, N_WAVELENGTHS,
 };
 
 /// Shortest wavelength a path may carry, in nanometres.

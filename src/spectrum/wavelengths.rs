@@ -59,6 +59,126 @@ impl SampledWavelengths {
     }
 }
 
+/// Bins of the weights a [`WavelengthDistribution`] is built from: 1 nm
+/// each over [360, 830] nm.
+const BINS: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize;
+/// Equal-probability segments of a [`WavelengthDistribution`].
+const SEGMENTS: usize = 1024;
+
+/// A density over [360, 830] nm that paths draw their wavelengths from:
+/// the scene builds one that follows its lights' emission and the film's
+/// colour response (see `Scene::wavelengths`), where the fixed visible
+/// density would spend samples on wavelengths that carry little light.
+///
+/// Stored as its quantiles at 1024 equally likely segments, the density
+/// constant within each: drawing a wavelength is one lookup and one linear
+/// interpolation, with no search.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WavelengthDistribution {
+    /// quantiles[k]: the wavelength below which the probability is k / SEGMENTS.
+    quantiles: Vec<f32>,
+    /// Density per nm within each segment: 1 / (SEGMENTS × its width).
+    density: Vec<f32>,
+}
+
+impl WavelengthDistribution {
+    /// The distribution proportional to `density` at each 1 nm bin's centre
+    /// (constant over the bin).
+    pub fn new(density: impl Fn(f32) -> f64) -> Self {
+        Self::from_weights(Self::centres().map(density).collect())
+    }
+
+    /// The centres of the 1 nm bins, in order.
+    pub fn centres() -> impl Iterator<Item = f32> {
+        (0..BINS).map(|i| LAMBDA_MIN + i as f32 + 0.5)
+    }
+
+    /// The distribution proportional to a weight per 1 nm bin (negative or
+    /// non-finite weights count as zero); the visible density where the
+    /// weights have no positive, finite sum.
+    pub fn from_weights(mut weights: Vec<f64>) -> Self {
+        assert_eq!(weights.len(), BINS, "one weight per 1 nm bin");
+        for w in &mut weights {
+            if !(w.is_finite() && *w > 0.0) {
+                *w = 0.0;
+            }
+        }
+        let total: f64 = weights.iter().sum();
+        if !(total.is_finite() && total > 0.0) {
+            return Self::visible();
+        }
+        // Invert the piecewise-linear CDF at each k / SEGMENTS, from the
+        // start of the first bin with weight to the end of the last.
+        let mut quantiles = Vec::with_capacity(SEGMENTS + 1);
+        let (mut bin, mut below) = (0, 0.0);
+        for k in 0..SEGMENTS {
+            let target = k as f64 / SEGMENTS as f64 * total;
+            while bin + 1 < BINS && (weights[bin] == 0.0 || below + weights[bin] < target) {
+                below += weights[bin];
+                bin += 1;
+            }
+            let t = ((target - below) / weights[bin]).clamp(0.0, 1.0);
+            quantiles.push(LAMBDA_MIN + bin as f32 + t as f32);
+        }
+        let last = weights.iter().rposition(|&w| w > 0.0).unwrap_or(BINS - 1);
+        quantiles.push(LAMBDA_MIN + last as f32 + 1.0);
+        let density = quantiles
+            .windows(2)
+            .map(|q| 1.0 / (SEGMENTS as f32 * (q[1] - q[0]).max(1e-6)))
+            .collect();
+        Self { quantiles, density }
+    }
+
+    /// The visible density of [`SampledWavelengths::sample_visible`], tabulated.
+    pub fn visible() -> Self {
+        Self::new(|l| visible_wavelength_pdf(l) as f64)
+    }
+
+    /// One wavelength for `u` in [0, 1), with its density per nm.
+    #[inline]
+    pub fn sample_one(&self, u: f32) -> (f32, f32) {
+        let x = u * SEGMENTS as f32;
+        let k = (x as usize).min(SEGMENTS - 1);
+        let (q0, q1) = (self.quantiles[k], self.quantiles[k + 1]);
+        (q0 + (x - k as f32) * (q1 - q0), self.density[k])
+    }
+
+    /// Four wavelengths: the hero for `u` and three stratified rotations of it.
+    #[inline]
+    pub fn sample(&self, u: f32) -> SampledWavelengths {
+        let mut lambda = [0.0; N_WAVELENGTHS];
+        let mut pdf = [0.0; N_WAVELENGTHS];
+        for i in 0..N_WAVELENGTHS {
+            let mut up = u + i as f32 / N_WAVELENGTHS as f32;
+            if up >= 1.0 {
+                up -= 1.0;
+            }
+            (lambda[i], pdf[i]) = self.sample_one(up);
+        }
+        SampledWavelengths {
+            lambda: Vec4::from_array(lambda),
+            pdf: Vec4::from_array(pdf),
+        }
+    }
+
+    /// Density per nm at `lambda`.
+    pub fn pdf(&self, lambda: f32) -> f32 {
+        // Quantiles at or below lambda: 0 before the first, SEGMENTS + 1
+        // past the last.
+        match self.quantiles.partition_point(|&q| q <= lambda) {
+            0 => 0.0,
+            k if k > SEGMENTS => 0.0,
+            k => self.density[k - 1],
+        }
+    }
+}
+
+impl Default for WavelengthDistribution {
+    fn default() -> Self {
+        Self::visible()
+    }
+}
+
 /// Inverse CDF of the visible-wavelength density on [360, 830] nm.
 pub fn sample_visible_wavelength(u: f32) -> f32 {
     538.0 - 138.888_89 * (0.856_910_6 - 1.827_502 * u).atanh()
@@ -114,6 +234,98 @@ mod tests {
                     (p - visible_wavelength_pdf(l)).abs() < 1e-4 * p,
                     "{p} at {l}"
                 );
+            }
+        }
+    }
+
+    /// A spiky test density: zero below 400 nm and above 700 nm, a ramp
+    /// between, and a narrow line at 589 nm holding a fifth of the mass.
+    fn lamp(l: f32) -> f64 {
+        let ramp = if (400.0..700.0).contains(&l) {
+            (l - 400.0) as f64 / 300.0
+        } else {
+            0.0
+        };
+        let line = if (589.0..590.0).contains(&l) {
+            0.2 * 150.0
+        } else {
+            0.0
+        };
+        ramp + line
+    }
+
+    #[test]
+    fn distribution_draws_with_the_density_it_reports() {
+        for d in [
+            WavelengthDistribution::visible(),
+            WavelengthDistribution::new(lamp),
+        ] {
+            // The density integrates to one.
+            let n = 470_000;
+            let h = (LAMBDA_MAX - LAMBDA_MIN) as f64 / n as f64;
+            let integral: f64 = (0..n)
+                .map(|i| d.pdf((LAMBDA_MIN as f64 + (i as f64 + 0.5) * h) as f32) as f64 * h)
+                .sum();
+            assert!((integral - 1.0).abs() < 1e-3, "integral {integral}");
+            // Each draw reports the density at the wavelength drawn, and the
+            // fraction of draws in each 10 nm band is the density's mass there.
+            let draws = 200_000;
+            let mut counts = [0u32; 47];
+            for k in 0..draws {
+                let (l, p) = d.sample_one((k as f32 + 0.5) / draws as f32);
+                assert!((LAMBDA_MIN..LAMBDA_MAX).contains(&l), "{l}");
+                // (f32 rounding may put a draw at its segment's end into
+                // the next one.)
+                let near = [d.pdf(l), d.pdf(l - 1e-3), d.pdf(l + 1e-3)];
+                assert!(near.contains(&p), "density {p} at {l}: {near:?}");
+                counts[((l - LAMBDA_MIN) / 10.0) as usize] += 1;
+            }
+            for (band, &c) in counts.iter().enumerate() {
+                let lo = LAMBDA_MIN + band as f32 * 10.0;
+                let mass: f64 = (0..10_000)
+                    .map(|i| d.pdf(lo + (i as f32 + 0.5) * 1e-3) as f64 * 1e-3)
+                    .sum();
+                let got = c as f64 / draws as f64;
+                assert!(
+                    (got - mass).abs() < 2e-4 + 1e-3 * mass,
+                    "band {lo}: {got} vs {mass}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn distribution_follows_its_weights() {
+        let d = WavelengthDistribution::new(lamp);
+        // Nothing outside the lamp's range; [589, 590] nm holds the line and
+        // a little of the ramp: 30.63 of 180 (to within the two segments
+        // of 1/1024 that straddle its ends).
+        assert_eq!(d.pdf(399.0), 0.0);
+        assert_eq!(d.pdf(701.0), 0.0);
+        let total = 150.0 + 30.0;
+        let line = (0..1000)
+            .map(|i| d.pdf(589.0 + (i as f32 + 0.5) / 1000.0) / 1000.0)
+            .sum::<f32>();
+        assert!((line - 30.63 / total as f32).abs() < 2.0 / 1024.0, "{line}");
+        // The ramp: the density at 650 nm is 2.5 times that at 500 nm.
+        let ratio = d.pdf(650.5) / d.pdf(500.5);
+        assert!((ratio - 2.5).abs() < 0.05, "{ratio}");
+        // Weights without mass give the visible density.
+        let none = WavelengthDistribution::from_weights(vec![0.0; BINS]);
+        assert_eq!(none, WavelengthDistribution::visible());
+        let nan = WavelengthDistribution::new(|_| f64::NAN);
+        assert_eq!(nan, WavelengthDistribution::visible());
+    }
+
+    #[test]
+    fn distribution_rotates_the_hero_into_four_strata() {
+        let d = WavelengthDistribution::new(lamp);
+        for k in 0..1000 {
+            let u = k as f32 / 1000.0;
+            let wl = d.sample(u);
+            for i in 0..N_WAVELENGTHS {
+                let up = (u + i as f32 / 4.0) % 1.0;
+                assert_eq!((wl.lambda[i], wl.pdf[i]), d.sample_one(up));
             }
         }
     }
