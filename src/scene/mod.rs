@@ -22,7 +22,7 @@ use crate::integrator::Integrator;
 use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
 use crate::material::{Cutout, Material};
 use crate::medium::Medium;
-use crate::spectrum::{Spectrum, WavelengthDistribution};
+use crate::spectrum::{cie, Spectrum, WavelengthDistribution};
 use crate::texture::TextureRef;
 
 /// Light emitted by a shape.
@@ -126,12 +126,15 @@ pub struct Scene {
 
 /// The wavelengths paths draw: a mixture of the visible density (so every
 /// visible wavelength stays likely) and one that follows the lights'
-/// emission times the film's colour response (the length of the vector of
-/// the output space's colour-matching functions), where most of the image's
-/// signal is. Emission enters as its square root: what reaches the film is
-/// the emission filtered by unknown reflectances, so a density that follows
-/// it all the way would starve wavelengths the scene's surfaces favour.
-fn wavelength_distribution(lights: &LightSet, film: &FilmSettings) -> WavelengthDistribution {
+/// emission times the colour response (the length of the vector of linear
+/// sRGB colour-matching functions), where most of the image's signal is.
+/// Emission enters as its square root: what reaches the film is the
+/// emission filtered by unknown reflectances, so a density that follows it
+/// all the way would starve wavelengths the scene's surfaces favour. The
+/// film's settings (observer, colour space, white balance) are left out on
+/// purpose: renders that differ only in them draw the same wavelengths, so
+/// one is exactly the other's colour transform.
+fn wavelength_distribution(lights: &LightSet) -> WavelengthDistribution {
     // Measured on the Cornell Box (the variance of two 64-spp renders, in
     // relMSE): half visible with the emission's square root, 11% below the
     // visible density alone; 20% or 30% visible the same within noise, the
@@ -139,12 +142,10 @@ fn wavelength_distribution(lights: &LightSet, film: &FilmSettings) -> Wavelength
     const VISIBLE: f64 = 0.5;
     let centres: Vec<f32> = WavelengthDistribution::centres().collect();
     let emission = lights.relative_emission(&centres);
-    let cmfs = film.observer.cmfs();
-    let to_rgb = film.colour.matrix();
     let response: Vec<f64> = centres
         .iter()
         .zip(&emission)
-        .map(|(&l, &e)| e.sqrt() * (to_rgb * cmfs.at(l)).length() as f64)
+        .map(|(&l, &e)| e.sqrt() * cie::xyz_to_linear_srgb(cie::cmf(l)).length() as f64)
         .collect();
     let visible: Vec<f64> = centres
         .iter()
@@ -275,7 +276,7 @@ impl Scene {
         );
         let lights = LightSet::new(lights);
         Scene {
-            wavelengths: wavelength_distribution(&lights, &film),
+            wavelengths: wavelength_distribution(&lights),
             camera,
             film,
             integrator,
