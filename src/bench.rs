@@ -69,6 +69,8 @@ pub struct BenchOptions {
     pub out_dir: PathBuf,
     /// Render with this integrator instead of the scene file's.
     pub integrator: Option<crate::integrator::IntegratorKind>,
+    /// The path tracer's splitting instead of the scene file's.
+    pub split: Option<u32>,
 }
 
 /// The reference image: the given one, a cached render of this scene file
@@ -195,6 +197,7 @@ pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOption
     let overrides = crate::scene::Overrides {
         resolution,
         integrator: opts.integrator,
+        split: opts.split,
         ..Default::default()
     };
     let scene = crate::scene::load_with(scene_path, &overrides)?;

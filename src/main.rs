@@ -77,6 +77,10 @@ enum Command {
         /// Direct-lighting strategy of the path tracer (overrides integrator.strategy).
         #[arg(long, value_enum)]
         strategy: Option<StrategyArg>,
+        /// Continuations per camera sample from its first surface, for the
+        /// path tracer (overrides integrator.split).
+        #[arg(long, value_name = "N")]
+        split: Option<u32>,
         /// Wavelength range of the spectral buckets in nm, as MIN,MAX
         /// (overrides film.spectral_range).
         #[arg(long, value_name = "MIN,MAX", value_parser = parse_range)]
@@ -167,6 +171,11 @@ enum Command {
         /// Integrator (overrides integrator.type); its CSV is OUT/prism-NAME.csv.
         #[arg(long, value_enum)]
         integrator: Option<IntegratorKind>,
+        /// Continuations per camera sample from its first surface, for the
+        /// path tracer (overrides integrator.split; the reference is rendered
+        /// with it too).
+        #[arg(long, value_name = "N")]
+        split: Option<u32>,
     },
     /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
     Info {
@@ -281,6 +290,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             gamut,
             integrator,
             strategy,
+            split,
             spectral_range,
             spectral_buckets,
             no_spectral,
@@ -313,6 +323,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     StrategyArg::Nee => Strategy::Nee,
                     StrategyArg::Bsdf => Strategy::Bsdf,
                 }),
+                split,
             };
             let interrupts = Interrupts::new();
             {
@@ -377,6 +388,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             threads,
             out,
             integrator,
+            split,
         } => {
             let opts = prism::bench::BenchOptions {
                 ladder: spp,
@@ -385,6 +397,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 threads,
                 out_dir: out,
                 integrator,
+                split,
             };
             prism::bench::run(&scene, resolution, &opts)?;
             Ok(ExitCode::SUCCESS)

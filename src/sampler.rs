@@ -85,6 +85,27 @@ impl Sampler {
         (self.next_f32(), self.next_f32())
     }
 
+    /// Branch `k` of `n` that a camera sample splits into from here on:
+    /// its later 4D sets take Sobol index `index · n + k` (so the branches of
+    /// all the pixel's samples together are one low-discrepancy set, and a
+    /// sample's own branches an aligned, stratified block of it), and its
+    /// random numbers a stream of their own.
+    pub fn branch(&self, k: u32, n: u32) -> Sampler {
+        let mut s = self.clone();
+        s.state = mix(self.state ^ mix(0xb5a2_c4e1 ^ k as u64));
+        s.inc = (mix(self.inc ^ k as u64) << 1) | 1;
+        s.next_u32();
+        if self.sobol_index != u32::MAX {
+            let index = self.sobol_index as u64 * n as u64 + k as u64;
+            s.sobol_index = if index < SOBOL_SAMPLES {
+                index as u32
+            } else {
+                u32::MAX
+            };
+        }
+        s
+    }
+
     /// Leaves out the next 4D point (so that later points keep their place
     /// in the sequence when a path does not need this one).
     pub fn skip_4d(&mut self) {
@@ -170,6 +191,37 @@ mod tests {
         let vc: Vec<u32> = (0..8).map(|_| c.next_u32()).collect();
         assert_eq!(va, vb);
         assert_ne!(va, vc);
+    }
+
+    #[test]
+    fn branches_of_a_pixels_samples_form_one_stratified_set() {
+        // 16 samples of a pixel split four ways after the camera's set:
+        // the 64 branches' next sets put one point in each cell of an
+        // 8 × 8 grid, and each sample's own four one in each quadrant.
+        let mut cells = [0u32; 64];
+        let mut randoms = Vec::new();
+        for i in 0..16 {
+            let mut s = Sampler::for_sample(3, 7, 9, i);
+            s.next_4d();
+            let mut quadrants = [0u32; 4];
+            for k in 0..4 {
+                let mut b = s.branch(k, 4);
+                let p = b.next_4d();
+                cells[(p[0] * 8.0) as usize * 8 + (p[1] * 8.0) as usize] += 1;
+                quadrants[(p[0] * 2.0) as usize * 2 + (p[1] * 2.0) as usize] += 1;
+                randoms.push(b.next_u32());
+            }
+            assert_eq!(quadrants, [1; 4], "sample {i}");
+        }
+        assert!(cells.iter().all(|&c| c == 1), "{cells:?}");
+        // Each branch has a random stream of its own.
+        randoms.sort_unstable();
+        randoms.dedup();
+        assert_eq!(randoms.len(), 64);
+        // Past 2¹⁶ branch indices: independent numbers.
+        let far = Sampler::for_sample(3, 7, 9, 1 << 15);
+        let p = far.branch(1, 4).next_4d();
+        assert!(p.iter().all(|v| (0.0..1.0).contains(v)));
     }
 
     #[test]

@@ -231,6 +231,20 @@ fn max_depth_moved_to_the_integrator() {
         "{CAMERA}[integrator]\ntype = \"bdpt\"\nstrategy = \"mis\"\n"
     ));
     assert!(e.contains("not to `bdpt`"), "{e}");
+    let e = error(&format!(
+        "{CAMERA}[integrator]\ntype = \"sppm\"\nsplit = 4\n"
+    ));
+    assert!(
+        e.contains("integrator.split") && e.contains("path tracer"),
+        "{e}"
+    );
+    for bad in [0, 257] {
+        let e = error(&format!("{CAMERA}[integrator]\nsplit = {bad}\n"));
+        assert!(
+            e.contains("integrator.split") && e.contains("between 1 and 256"),
+            "{e}"
+        );
+    }
     let e = error(&format!("{CAMERA}[integrator]\ntype = \"mlt\"\n"));
     assert!(e.contains("unknown variant `mlt`"), "{e}");
 }

@@ -196,6 +196,8 @@ def run_prism(args, out, ladder):
         "--out",
         str(out),
     ]
+    if args.split:
+        cmd += ["--split", str(args.split)]
     subprocess.run(cmd, check=True)
     return list(csv.DictReader(open(out / "prism.csv")))
 
@@ -283,6 +285,7 @@ def main():
     ap.add_argument("--variants", default="scalar_spectral",
                     help="Mitsuba variants, comma-separated (scalar_spectral, llvm_ad_spectral)")
     ap.add_argument("--prism", help="the prism binary (default: target/release/prism, built if missing)")
+    ap.add_argument("--split", type=int, help="prism's path splitting (integrator.split) for the ladder")
     args = ap.parse_args()
     global PRISM
     PRISM = args.prism

@@ -45,6 +45,9 @@ pub enum Strategy {
     Bsdf,
 }
 
+/// Most continuations a path tracer's camera sample may split into.
+pub const MAX_SPLIT: u32 = 256;
+
 /// The `[integrator]` table: which integrator, and its parameters (each
 /// applies to the integrators that name it in README.md).
 #[derive(Debug, Default, Deserialize)]
@@ -58,6 +61,9 @@ pub struct IntegratorSpec {
     pub rr_depth: Option<u32>,
     /// How the path tracer finds direct light: "mis" (default), "nee" or "bsdf".
     pub strategy: Option<Strategy>,
+    /// Path tracer: continuations per camera sample from its first surface
+    /// (default 1: no splitting).
+    pub split: Option<u32>,
     /// Photon mapping: photons per iteration.
     pub photons: Option<u32>,
     /// Photon mapping: the first iteration's radius (scene units).
@@ -74,8 +80,15 @@ impl IntegratorSpec {
     /// each with the integrator it belongs to.
     pub fn keys_of_others(&self) -> Vec<(&'static str, &'static str)> {
         let mut keys = Vec::new();
-        if self.kind != IntegratorKind::Path && self.strategy.is_some() {
-            keys.push(("strategy", "the path tracer"));
+        if self.kind != IntegratorKind::Path {
+            for (key, given) in [
+                ("strategy", self.strategy.is_some()),
+                ("split", self.split.is_some()),
+            ] {
+                if given {
+                    keys.push((key, "the path tracer"));
+                }
+            }
         }
         if self.kind != IntegratorKind::Sppm {
             for (key, given) in [
@@ -100,7 +113,7 @@ impl IntegratorSpec {
             .map(|(key, _)| key)
             .collect();
         if self.kind != IntegratorKind::Path {
-            self.strategy = None;
+            (self.strategy, self.split) = (None, None);
         }
         if self.kind != IntegratorKind::Sppm {
             (self.photons, self.radius, self.alpha, self.spectral_radius) =
@@ -205,10 +218,17 @@ impl Integrator {
         Ok(match spec.kind {
             IntegratorKind::Path => {
                 let d = PathTracer::default();
+                let split = spec.split.unwrap_or(d.split);
+                if !(1..=MAX_SPLIT).contains(&split) {
+                    return Err(format!(
+                        "`integrator.split` must be between 1 and {MAX_SPLIT}, not {split}"
+                    ));
+                }
                 Integrator::Path(PathTracer {
                     max_depth: depth(d.max_depth),
                     rr_depth: rr(d.rr_depth),
                     strategy: spec.strategy.unwrap_or(d.strategy),
+                    split,
                 })
             }
             IntegratorKind::Light => {

@@ -39,6 +39,8 @@ pub struct PathTracer {
     pub rr_depth: u32,
     /// How direct light is found.
     pub strategy: Strategy,
+    /// Continuations per camera sample from its first surface.
+    pub split: u32,
 }
 
 impl Default for PathTracer {
@@ -47,6 +49,38 @@ impl Default for PathTracer {
             max_depth: 16,
             rr_depth: 3,
             strategy: Strategy::Mis,
+            split: 1,
+        }
+    }
+}
+
+/// Where a camera path is: the ray it follows and what it carries.
+#[derive(Clone)]
+struct PathState {
+    ray: Ray,
+    flight: Flight,
+    /// The last bounce was a Dirac one (or there was none: the camera ray
+    /// sees emitters as a specular bounce would, no light sampling competes).
+    specular: bool,
+    prev_bsdf_pdf: f32,
+    /// Surfaces and scattering events met so far.
+    depth: u32,
+    stack: IorStack,
+    /// Product of η'² over transmissions: radiance scales by 1/η'² entering
+    /// a denser medium, which Russian roulette must not mistake for a dim path.
+    eta_scale: f32,
+}
+
+impl PathState {
+    fn new(ray: Ray) -> Self {
+        Self {
+            ray,
+            flight: Flight::new(SampledSpectrum::ONE),
+            specular: true,
+            prev_bsdf_pdf: 0.0,
+            depth: 0,
+            stack: IorStack::default(),
+            eta_scale: 1.0,
         }
     }
 }
@@ -61,50 +95,67 @@ impl PathTracer {
         sampler: &mut Sampler,
         counters: &mut PathCounters,
     ) -> SampledSpectrum {
-        self.radiance_until(scene, ray, wl, sampler, counters, |_| None)
+        let st = PathState::new(ray);
+        self.walk(scene, st, wl, sampler, counters, &mut |_| None, self.split)
     }
 
     /// `radiance`, where `stop` may end the path at a surface with an
     /// estimate of the light it reflects (photon mapping ends camera paths
     /// at their first diffuse surface). Emission at the surface is already
-    /// counted; the estimate is weighted by the path's throughput.
+    /// counted; the estimate is weighted by the path's throughput. Paths
+    /// do not split here.
     pub fn radiance_until(
         &self,
         scene: &Scene,
-        mut ray: Ray,
+        ray: Ray,
         wl: &mut SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
         mut stop: impl FnMut(Stop<'_>) -> Option<SampledSpectrum>,
     ) -> SampledSpectrum {
+        self.walk(
+            scene,
+            PathState::new(ray),
+            wl,
+            sampler,
+            counters,
+            &mut stop,
+            1,
+        )
+    }
+
+    /// The path from `st` on: the radiance it gathers until it ends. With
+    /// `split` > 1 it splits at the first surface it scatters from.
+    #[allow(clippy::too_many_arguments)]
+    fn walk<F: FnMut(Stop<'_>) -> Option<SampledSpectrum>>(
+        &self,
+        scene: &Scene,
+        mut st: PathState,
+        wl: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+        counters: &mut PathCounters,
+        stop: &mut F,
+        split: u32,
+    ) -> SampledSpectrum {
         let mut l = SampledSpectrum::ZERO;
-        let mut flight = Flight::new(SampledSpectrum::ONE);
-        // The camera ray sees emitters as a specular bounce would: no light sampling competes.
-        let mut specular = true;
-        let mut prev_bsdf_pdf = 0.0;
-        let mut depth = 0;
-        let mut stack = IorStack::default();
-        // Product of η'² over transmissions: radiance scales by 1/η'² entering a
-        // denser medium, which Russian roulette must not mistake for a dim path.
-        let mut eta_scale = 1.0f32;
         loop {
             let next = trace(
                 scene,
-                &mut ray,
-                &mut stack,
+                &mut st.ray,
+                &mut st.stack,
                 wl,
-                &mut flight,
+                &mut st.flight,
                 Some(&mut *sampler),
                 counters,
             );
             let (hit, eta, medium) = match next {
                 Next::Surface { hit, eta, medium } => (hit, eta, medium),
                 Next::Medium { p, phase } => {
-                    if depth == self.max_depth {
+                    if st.depth == self.max_depth {
                         break;
                     }
-                    depth += 1;
-                    let dir_in = ray.dir.normalize();
+                    st.depth += 1;
+                    let dir_in = st.ray.dir.normalize();
                     if self.strategy != Strategy::Bsdf {
                         let direct = self.sample_direct_from(
                             scene,
@@ -119,21 +170,24 @@ impl PathTracer {
                                 }
                                 None => Ray::new(p, wi),
                             },
-                            |_| stack,
+                            |_| st.stack,
                             wl,
                             sampler,
                             counters,
                         );
-                        l += flight.weight(wl) * direct;
+                        l += st.flight.weight(wl) * direct;
                     } else {
                         sampler.skip_4d();
                     }
                     let [u0, u1, _, u_rr] = sampler.next_4d();
                     let (wi, pdf) = phase.sample(dir_in, (u0, u1));
-                    specular = false;
-                    prev_bsdf_pdf = pdf;
-                    ray = Ray::new(p, wi);
-                    if !flight.roulette(wl, eta_scale, depth, self.rr_depth, u_rr) {
+                    st.specular = false;
+                    st.prev_bsdf_pdf = pdf;
+                    st.ray = Ray::new(p, wi);
+                    if !st
+                        .flight
+                        .roulette(wl, st.eta_scale, st.depth, self.rr_depth, u_rr)
+                    {
                         break;
                     }
                     continue;
@@ -141,33 +195,33 @@ impl PathTracer {
                 Next::Escaped => {
                     // Only lights at infinity are seen.
                     for (i, light) in scene.lights.infinite() {
-                        let le = light.le(ray.dir, wl);
-                        let weight = self.emission_weight(specular, prev_bsdf_pdf, || {
-                            scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, None)
+                        let le = light.le(st.ray.dir, wl);
+                        let weight = self.emission_weight(st.specular, st.prev_bsdf_pdf, || {
+                            scene.lights.pmf(i) * light.pdf_li(st.ray.origin, st.ray.dir, None)
                         });
-                        l += flight.weight(wl) * le * weight;
+                        l += st.flight.weight(wl) * le * weight;
                     }
                     break;
                 }
                 Next::Lost => break,
             };
-            let wo = -ray.dir;
+            let wo = -st.ray.dir;
 
             if let Some(i) = hit.light {
                 let light = scene.lights.get(i);
                 let le = light.l(hit.uv, wo, wl);
                 if le != SampledSpectrum::ZERO {
-                    let weight = self.emission_weight(specular, prev_bsdf_pdf, || {
-                        scene.lights.pmf(i) * light.pdf_li(ray.origin, ray.dir, Some(hit.p))
+                    let weight = self.emission_weight(st.specular, st.prev_bsdf_pdf, || {
+                        scene.lights.pmf(i) * light.pdf_li(st.ray.origin, st.ray.dir, Some(hit.p))
                     });
-                    l += flight.weight(wl) * le * weight;
+                    l += st.flight.weight(wl) * le * weight;
                 }
             }
 
-            if depth == self.max_depth {
+            if st.depth == self.max_depth {
                 break;
             }
-            depth += 1;
+            st.depth += 1;
 
             let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
             let at = Stop {
@@ -175,48 +229,124 @@ impl PathTracer {
                 wo,
                 bsdf: &bsdf,
                 wl,
-                depth,
+                depth: st.depth,
                 sampler: &mut *sampler,
                 counters: &mut *counters,
-                stack: &stack,
+                stack: &st.stack,
                 medium,
             };
             if let Some(reflected) = stop(at) {
-                l += flight.weight(wl) * reflected;
+                l += st.flight.weight(wl) * reflected;
                 break;
             }
 
             if self.strategy != Strategy::Bsdf && !bsdf.is_specular() {
                 let direct = self.sample_direct(
-                    scene, &hit, wo, &bsdf, &stack, medium, wl, sampler, counters,
+                    scene, &hit, wo, &bsdf, &st.stack, medium, wl, sampler, counters,
                 );
-                l += flight.weight(wl) * direct;
+                l += st.flight.weight(wl) * direct;
             } else {
                 // Keep the dimensions of later bounces aligned across samples.
                 sampler.skip_4d();
             }
 
-            // One 4D point per bounce: the BSDF's direction (2D), its lobe
-            // choice, and Russian roulette.
-            let [u0, u1, uc, u_rr] = sampler.next_4d();
-            let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Radiance) else {
+            if split > 1 {
+                // The first surface: the sample splits into `split`
+                // continuations, each with its own copy of the path.
+                l += self.branches(
+                    scene, &st, &hit, wo, &bsdf, medium, wl, sampler, counters, split,
+                );
                 break;
-            };
-            flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-            specular = bs.is_specular();
-            prev_bsdf_pdf = bs.pdf;
-            ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
-
-            // Transmission through a dielectric moves the path into or out of it.
-            if scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters) && medium.is_some() {
-                eta_scale *= bs.eta * bs.eta;
             }
-
-            if !flight.roulette(wl, eta_scale, depth, self.rr_depth, u_rr) {
+            if !self.scatter(&mut st, &hit, wo, &bsdf, medium, wl, sampler, counters) {
                 break;
             }
         }
         l
+    }
+
+    /// `split` continuations of a path at a surface (`hit`, seen from
+    /// `wo`), each a BSDF sample and the walk from there with its own copy
+    /// of the path, sampler branch and wavelengths, averaged. Each branch's
+    /// radiance counts per wavelength over its own density (a branch
+    /// through a dispersive interface keeps only its hero), so the average
+    /// is returned at the path's unchanged wavelengths.
+    #[allow(clippy::too_many_arguments)]
+    fn branches(
+        &self,
+        scene: &Scene,
+        st: &PathState,
+        hit: &SurfaceHit,
+        wo: glam::Vec3,
+        bsdf: &Bsdf,
+        medium: Option<(Entry, bool)>,
+        wl: &SampledWavelengths,
+        sampler: &Sampler,
+        counters: &mut PathCounters,
+        split: u32,
+    ) -> SampledSpectrum {
+        let mut per_density = SampledSpectrum::ZERO;
+        for k in 0..split {
+            let mut branch = st.clone();
+            let mut wl_k = *wl;
+            let mut sampler_k = sampler.branch(k, split);
+            if !self.scatter(
+                &mut branch,
+                hit,
+                wo,
+                bsdf,
+                medium,
+                &wl_k,
+                &mut sampler_k,
+                counters,
+            ) {
+                continue;
+            }
+            let l = self.walk(
+                scene,
+                branch,
+                &mut wl_k,
+                &mut sampler_k,
+                counters,
+                &mut |_| None,
+                1,
+            );
+            let live = wl_k.pdf.cmpgt(SampledSpectrum::ZERO);
+            per_density += SampledSpectrum::select(live, l / wl_k.pdf, SampledSpectrum::ZERO);
+        }
+        per_density * wl.pdf / split as f32
+    }
+
+    /// The BSDF sample that continues the path at `hit`, and Russian
+    /// roulette: whether the path goes on.
+    #[allow(clippy::too_many_arguments)]
+    fn scatter(
+        &self,
+        st: &mut PathState,
+        hit: &SurfaceHit,
+        wo: glam::Vec3,
+        bsdf: &Bsdf,
+        medium: Option<(Entry, bool)>,
+        wl: &SampledWavelengths,
+        sampler: &mut Sampler,
+        counters: &mut PathCounters,
+    ) -> bool {
+        // One 4D point per bounce: the BSDF's direction (2D), its lobe
+        // choice, and Russian roulette.
+        let [u0, u1, uc, u_rr] = sampler.next_4d();
+        let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Radiance) else {
+            return false;
+        };
+        st.flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+        st.specular = bs.is_specular();
+        st.prev_bsdf_pdf = bs.pdf;
+        st.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
+        // Transmission through a dielectric moves the path into or out of it.
+        if scatter(&mut st.stack, medium, wo, bs.wi, hit.ng, counters) && medium.is_some() {
+            st.eta_scale *= bs.eta * bs.eta;
+        }
+        st.flight
+            .roulette(wl, st.eta_scale, st.depth, self.rr_depth, u_rr)
     }
 
     /// The weight of emission that the path found by BSDF sampling: all of

@@ -371,6 +371,7 @@ impl Sppm {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
             strategy: Strategy::Mis,
+            split: 1,
         };
         // At the visible point the path ends: light sampling alone finds
         // the direct light (no BSDF sample follows to share it with).

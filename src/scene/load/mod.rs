@@ -47,6 +47,7 @@ pub struct Overrides {
     pub gamut: Option<Gamut>,
     pub strategy: Option<Strategy>,
     pub integrator: Option<IntegratorKind>,
+    pub split: Option<u32>,
 }
 
 impl Overrides {
@@ -85,6 +86,10 @@ impl Overrides {
         if let Some(s) = self.strategy {
             file.integrator.strategy = Some(s);
             set.push(("integrator.strategy", "--strategy"));
+        }
+        if let Some(n) = self.split {
+            file.integrator.split = Some(n);
+            set.push(("integrator.split", "--split"));
         }
         set
     }
