@@ -54,6 +54,16 @@ impl Default for PathTracer {
     }
 }
 
+/// The surface a path scatters from: the hit, the direction back along
+/// the path, the BSDF there and what `trace` said of the media.
+#[derive(Clone, Copy)]
+struct Scattering<'a> {
+    hit: &'a SurfaceHit,
+    wo: glam::Vec3,
+    bsdf: &'a Bsdf,
+    medium: Option<(Entry, bool)>,
+}
+
 /// Where a camera path is: the ray it follows and what it carries.
 #[derive(Clone)]
 struct PathState {
@@ -240,7 +250,13 @@ impl PathTracer {
                 break;
             }
 
-            l += self.direct(scene, &st, &hit, wo, &bsdf, medium, wl, sampler, counters);
+            let at = Scattering {
+                hit: &hit,
+                wo,
+                bsdf: &bsdf,
+                medium,
+            };
+            l += self.direct(scene, &st, &at, wl, sampler, counters);
 
             if split > 1 {
                 // The first surface: the sample splits into `split`
@@ -248,12 +264,10 @@ impl PathTracer {
                 // direct light stays one estimate: light sampling in every
                 // branch lowered the Cornell Box's variance 3-9% for 9-18%
                 // more time.
-                l += self.branches(
-                    scene, &st, &hit, wo, &bsdf, medium, wl, sampler, counters, split,
-                );
+                l += self.branches(scene, &st, &at, wl, sampler, counters, split);
                 break;
             }
-            if !self.scatter(&mut st, &hit, wo, &bsdf, medium, wl, sampler, counters) {
+            if !self.scatter(&mut st, &at, wl, sampler, counters) {
                 break;
             }
         }
@@ -271,10 +285,7 @@ impl PathTracer {
         &self,
         scene: &Scene,
         st: &PathState,
-        hit: &SurfaceHit,
-        wo: glam::Vec3,
-        bsdf: &Bsdf,
-        medium: Option<(Entry, bool)>,
+        at: &Scattering<'_>,
         wl: &SampledWavelengths,
         sampler: &Sampler,
         counters: &mut PathCounters,
@@ -286,16 +297,7 @@ impl PathTracer {
             let mut wl_k = *wl;
             let mut sampler_k = sampler.branch(k, split);
             let mut l = SampledSpectrum::ZERO;
-            if self.scatter(
-                &mut branch,
-                hit,
-                wo,
-                bsdf,
-                medium,
-                &wl_k,
-                &mut sampler_k,
-                counters,
-            ) {
+            if self.scatter(&mut branch, at, &wl_k, &mut sampler_k, counters) {
                 l += self.walk(
                     scene,
                     branch,
@@ -315,22 +317,18 @@ impl PathTracer {
     /// Next-event estimation at the path's surface `hit`, weighted by what
     /// the path carries (zero, with its numbers skipped, where the strategy
     /// or a Dirac BSDF rules it out).
-    #[allow(clippy::too_many_arguments)]
     fn direct(
         &self,
         scene: &Scene,
         st: &PathState,
-        hit: &SurfaceHit,
-        wo: glam::Vec3,
-        bsdf: &Bsdf,
-        medium: Option<(Entry, bool)>,
+        at: &Scattering<'_>,
         wl: &SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
     ) -> SampledSpectrum {
-        if self.strategy != Strategy::Bsdf && !bsdf.is_specular() {
+        if self.strategy != Strategy::Bsdf && !at.bsdf.is_specular() {
             let direct = self.sample_direct(
-                scene, hit, wo, bsdf, &st.stack, medium, wl, sampler, counters,
+                scene, at.hit, at.wo, at.bsdf, &st.stack, at.medium, wl, sampler, counters,
             );
             st.flight.weight(wl) * direct
         } else {
@@ -342,18 +340,20 @@ impl PathTracer {
 
     /// The BSDF sample that continues the path at `hit`, and Russian
     /// roulette: whether the path goes on.
-    #[allow(clippy::too_many_arguments)]
     fn scatter(
         &self,
         st: &mut PathState,
-        hit: &SurfaceHit,
-        wo: glam::Vec3,
-        bsdf: &Bsdf,
-        medium: Option<(Entry, bool)>,
+        at: &Scattering<'_>,
         wl: &SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
     ) -> bool {
+        let Scattering {
+            hit,
+            wo,
+            bsdf,
+            medium,
+        } = *at;
         // One 4D point per bounce: the BSDF's direction (2D), its lobe
         // choice, and Russian roulette.
         let [u0, u1, uc, u_rr] = sampler.next_4d();

@@ -25,6 +25,20 @@ impl SampledWavelengths {
     /// to 1/cosh²(0.0072 (λ − 538)), a smooth fit of the visual response.
     /// The three secondaries are the hero's stratified rotations.
     pub fn sample_visible(u: f32) -> Self {
+        Self::rotations(u, |up| {
+            // λ = 538 − atanh(y)/0.0072, so the density 1/cosh²(0.0072 (λ − 538))
+            // is (1 − y²): no cosh, and one logarithm for the atanh.
+            let y = 0.856_910_6 - 1.827_502 * up;
+            let lambda = (538.0 - 138.888_89 * 0.5 * ((1.0 + y) / (1.0 - y)).ln())
+                .clamp(LAMBDA_MIN, LAMBDA_MAX);
+            (lambda, 0.003_939_804 * (1.0 - y * y))
+        })
+    }
+
+    /// The hero wavelength at `u` and its three stratified rotations (u +
+    /// 1/4, 1/2, 3/4, wrapped), each drawn by `draw(u)` = (λ, density).
+    #[inline]
+    fn rotations(u: f32, draw: impl Fn(f32) -> (f32, f32)) -> Self {
         let mut lambda = [0.0; N_WAVELENGTHS];
         let mut pdf = [0.0; N_WAVELENGTHS];
         for i in 0..N_WAVELENGTHS {
@@ -32,12 +46,7 @@ impl SampledWavelengths {
             if up >= 1.0 {
                 up -= 1.0;
             }
-            // λ = 538 − atanh(y)/0.0072, so the density 1/cosh²(0.0072 (λ − 538))
-            // is (1 − y²): no cosh, and one logarithm for the atanh.
-            let y = 0.856_910_6 - 1.827_502 * up;
-            lambda[i] = (538.0 - 138.888_89 * 0.5 * ((1.0 + y) / (1.0 - y)).ln())
-                .clamp(LAMBDA_MIN, LAMBDA_MAX);
-            pdf[i] = 0.003_939_804 * (1.0 - y * y);
+            (lambda[i], pdf[i]) = draw(up);
         }
         Self {
             lambda: Vec4::from_array(lambda),
@@ -146,19 +155,7 @@ impl WavelengthDistribution {
     /// Four wavelengths: the hero for `u` and three stratified rotations of it.
     #[inline]
     pub fn sample(&self, u: f32) -> SampledWavelengths {
-        let mut lambda = [0.0; N_WAVELENGTHS];
-        let mut pdf = [0.0; N_WAVELENGTHS];
-        for i in 0..N_WAVELENGTHS {
-            let mut up = u + i as f32 / N_WAVELENGTHS as f32;
-            if up >= 1.0 {
-                up -= 1.0;
-            }
-            (lambda[i], pdf[i]) = self.sample_one(up);
-        }
-        SampledWavelengths {
-            lambda: Vec4::from_array(lambda),
-            pdf: Vec4::from_array(pdf),
-        }
+        SampledWavelengths::rotations(u, |up| self.sample_one(up))
     }
 
     /// Density per nm at `lambda`.
