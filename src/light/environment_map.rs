@@ -77,6 +77,12 @@ impl EnvironmentMap {
     }
 
     /// Mean luminance × 4π × the scene's cross-section.
+    /// The shape its texels share: D65, which each texel's smooth factor
+    /// (its colour) multiplies.
+    pub fn spectrum(&self) -> &Spectrum {
+        &self.d65
+    }
+
     pub fn power(&self) -> f64 {
         let r = self.scene.radius as f64;
         self.mean_luminance * 4.0 * std::f64::consts::PI * std::f64::consts::PI * r * r

@@ -260,15 +260,18 @@ impl Light {
     }
 
     /// The shape of the light's emission over wavelength, where one
-    /// spectrum describes it; None where it varies over the light (images,
-    /// the sky model).
+    /// spectrum describes it (an image's D65, which every texel's colour
+    /// multiplies); None for the sky model, which counts as flat. (Its
+    /// integrated radiance was tried: the sunset's sun outweighs its sky by
+    /// power, yet the image shows the sky, and blue's variance tripled.)
     pub fn spectrum(&self) -> Option<&Spectrum> {
         match self {
             Light::Area(l) => Some(l.spectrum()),
             Light::Point(l) => Some(l.spectrum()),
             Light::Directional(l) => Some(l.spectrum()),
             Light::Environment(l) => Some(l.spectrum()),
-            Light::EnvironmentMap(_) | Light::Sky(_) | Light::Sun(_) => None,
+            Light::EnvironmentMap(l) => Some(l.spectrum()),
+            Light::Sky(_) | Light::Sun(_) => None,
         }
     }
 
