@@ -16,14 +16,14 @@ fn with_split(text: &str, split: u32) -> Scene {
     ))
 }
 
+/// The scene `text` split `n` ways and not at all agree block by block.
+fn assert_split_agrees(text: &str, n: u32, what: &str) {
+    assert_scenes_agree(&with_split(text, 1), &with_split(text, n), what);
+}
+
 #[test]
 fn split_paths_agree_with_plain_ones_on_the_cornell_box() {
-    let text = cornell_box();
-    assert_scenes_agree(
-        &with_split(&text, 1),
-        &with_split(&text, 4),
-        "Cornell Box, split 4",
-    );
+    assert_split_agrees(&cornell_box(), 4, "Cornell Box, split 4");
 }
 
 #[test]
@@ -32,11 +32,7 @@ fn split_paths_agree_with_plain_ones_through_dispersive_glass() {
     // while its siblings that reflect keep all four.
     let text = GLASS_METAL_SHADING.replace("ior = 1.5\nroughness = 0.3", "ior = \"N-SF11\"");
     assert!(text.contains("N-SF11"));
-    assert_scenes_agree(
-        &with_split(&text, 1),
-        &with_split(&text, 3),
-        "dispersive glass, split 3",
-    );
+    assert_split_agrees(&text, 3, "dispersive glass, split 3");
 }
 
 #[test]

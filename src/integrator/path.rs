@@ -250,13 +250,13 @@ impl PathTracer {
                 break;
             }
 
-            let at = Scattering {
+            let surface = Scattering {
                 hit: &hit,
                 wo,
                 bsdf: &bsdf,
                 medium,
             };
-            l += self.direct(scene, &st, &at, wl, sampler, counters);
+            l += self.direct(scene, &st, &surface, wl, sampler, counters);
 
             if split > 1 {
                 // The first surface: the sample splits into `split`
@@ -264,28 +264,28 @@ impl PathTracer {
                 // direct light stays one estimate: light sampling in every
                 // branch lowered the Cornell Box's variance 3-9% for 9-18%
                 // more time.
-                l += self.branches(scene, &st, &at, wl, sampler, counters, split);
+                l += self.branches(scene, &st, &surface, wl, sampler, counters, split);
                 break;
             }
-            if !self.scatter(&mut st, &at, wl, sampler, counters) {
+            if !self.scatter(&mut st, &surface, wl, sampler, counters) {
                 break;
             }
         }
         l
     }
 
-    /// `split` continuations of a path at a surface (`hit`, seen from
-    /// `wo`), each a BSDF sample and the walk from there with its own copy
-    /// of the path, sampler branch and wavelengths, averaged. Each branch's
-    /// radiance counts per wavelength over its own density (a branch
-    /// through a dispersive interface keeps only its hero), so the average
-    /// is returned at the path's unchanged wavelengths.
+    /// `split` continuations of a path at `surface`, each a BSDF sample and
+    /// the walk from there with its own copy of the path, sampler branch
+    /// and wavelengths, averaged. Each branch's radiance counts per
+    /// wavelength over its own density (a branch through a dispersive
+    /// interface keeps only its hero), so the average is returned at the
+    /// path's unchanged wavelengths.
     #[allow(clippy::too_many_arguments)]
     fn branches(
         &self,
         scene: &Scene,
         st: &PathState,
-        at: &Scattering<'_>,
+        surface: &Scattering<'_>,
         wl: &SampledWavelengths,
         sampler: &Sampler,
         counters: &mut PathCounters,
@@ -296,9 +296,8 @@ impl PathTracer {
             let mut branch = st.clone();
             let mut wl_k = *wl;
             let mut sampler_k = sampler.branch(k, split);
-            let mut l = SampledSpectrum::ZERO;
-            if self.scatter(&mut branch, at, &wl_k, &mut sampler_k, counters) {
-                l += self.walk(
+            let l = if self.scatter(&mut branch, surface, &wl_k, &mut sampler_k, counters) {
+                self.walk(
                     scene,
                     branch,
                     &mut wl_k,
@@ -306,29 +305,39 @@ impl PathTracer {
                     counters,
                     &mut |_| None,
                     1,
-                );
-            }
+                )
+            } else {
+                SampledSpectrum::ZERO
+            };
             let live = wl_k.pdf.cmpgt(SampledSpectrum::ZERO);
             per_density += SampledSpectrum::select(live, l / wl_k.pdf, SampledSpectrum::ZERO);
         }
         per_density * wl.pdf / split as f32
     }
 
-    /// Next-event estimation at the path's surface `hit`, weighted by what
+    /// Next-event estimation at the path's `surface`, weighted by what
     /// the path carries (zero, with its numbers skipped, where the strategy
     /// or a Dirac BSDF rules it out).
     fn direct(
         &self,
         scene: &Scene,
         st: &PathState,
-        at: &Scattering<'_>,
+        surface: &Scattering<'_>,
         wl: &SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
     ) -> SampledSpectrum {
-        if self.strategy != Strategy::Bsdf && !at.bsdf.is_specular() {
+        if self.strategy != Strategy::Bsdf && !surface.bsdf.is_specular() {
             let direct = self.sample_direct(
-                scene, at.hit, at.wo, at.bsdf, &st.stack, at.medium, wl, sampler, counters,
+                scene,
+                surface.hit,
+                surface.wo,
+                surface.bsdf,
+                &st.stack,
+                surface.medium,
+                wl,
+                sampler,
+                counters,
             );
             st.flight.weight(wl) * direct
         } else {
@@ -338,12 +347,12 @@ impl PathTracer {
         }
     }
 
-    /// The BSDF sample that continues the path at `hit`, and Russian
+    /// The BSDF sample that continues the path at `surface`, and Russian
     /// roulette: whether the path goes on.
     fn scatter(
         &self,
         st: &mut PathState,
-        at: &Scattering<'_>,
+        surface: &Scattering<'_>,
         wl: &SampledWavelengths,
         sampler: &mut Sampler,
         counters: &mut PathCounters,
@@ -353,7 +362,7 @@ impl PathTracer {
             wo,
             bsdf,
             medium,
-        } = *at;
+        } = *surface;
         // One 4D point per bounce: the BSDF's direction (2D), its lobe
         // choice, and Russian roulette.
         let [u0, u1, uc, u_rr] = sampler.next_4d();

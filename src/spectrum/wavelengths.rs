@@ -170,12 +170,6 @@ impl WavelengthDistribution {
     }
 }
 
-impl Default for WavelengthDistribution {
-    fn default() -> Self {
-        Self::visible()
-    }
-}
-
 /// Inverse CDF of the visible-wavelength density on [360, 830] nm.
 pub fn sample_visible_wavelength(u: f32) -> f32 {
     538.0 - 138.888_89 * (0.856_910_6 - 1.827_502 * u).atanh()
@@ -236,7 +230,7 @@ mod tests {
     }
 
     /// A spiky test density: zero below 400 nm and above 700 nm, a ramp
-    /// between, and a narrow line at 589 nm holding a fifth of the mass.
+    /// between, and a narrow line at 589 nm holding a sixth of the mass.
     fn lamp(l: f32) -> f64 {
         let ramp = if (400.0..700.0).contains(&l) {
             (l - 400.0) as f64 / 300.0
