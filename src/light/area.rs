@@ -1,5 +1,6 @@
 //! Area lights: emissive triangles with a spectral radiance (times a colour
 //! texture where there is one), one- or two-sided, sampled uniformly by area.
+//! A triangle of a cut-out material emits only where it is present.
 
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -10,6 +11,7 @@ use super::{Emitter, LightLeSample, LightLiSample, LightPoint};
 use crate::geometry::gamma;
 use crate::geometry::Frame;
 use crate::material::cosine_hemisphere;
+use crate::material::cutout::Cutout;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
 #[derive(Clone, Debug)]
@@ -22,6 +24,10 @@ pub struct AreaLight {
     area: f32,
     two_sided: bool,
     emitter: Arc<Emitter>,
+    /// The material's cut-out, if it has one: where the surface is absent
+    /// rays pass it and find no emission, so samples of the light must
+    /// not count emission there either.
+    cutout: Option<Arc<Cutout>>,
 }
 
 impl AreaLight {
@@ -38,7 +44,28 @@ impl AreaLight {
             area: crate::geometry::triangle::area(&tri),
             two_sided,
             emitter,
+            cutout: None,
         }
+    }
+
+    /// The light of a cut-out material's triangle.
+    pub fn with_cutout(self, cutout: Arc<Cutout>) -> Self {
+        Self {
+            cutout: Some(cutout),
+            ..self
+        }
+    }
+
+    /// Radiance leaving a sampled point towards `w`: what a ray arriving
+    /// there finds on average, the emission times the chance the surface is
+    /// present (a ray that finds it absent passes and sees no emission).
+    #[inline]
+    fn sampled_l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        let share = self.cutout.as_ref().map_or(1.0, |c| c.coverage(uv));
+        if share == 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        self.l(uv, w, wl) * share
     }
 
     pub fn emitter(&self) -> &Emitter {
@@ -105,7 +132,7 @@ impl AreaLight {
             return None;
         }
         let wi = to_light / dist2.sqrt();
-        let li = self.l(lp.uv, -wi, wl);
+        let li = self.sampled_l(lp.uv, -wi, wl);
         let cos_light = lp.n.dot(wi).abs();
         if li == SampledSpectrum::ZERO || cos_light == 0.0 {
             return None;
@@ -154,7 +181,7 @@ impl AreaLight {
         let n = self.n * side;
         let local = cosine_hemisphere((u0, u_dir.1));
         let dir = Frame::from_normal(n).to_world(local);
-        let le = self.l(lp.uv, dir, wl);
+        let le = self.sampled_l(lp.uv, dir, wl);
         let (pdf_pos, pdf_dir) = self.pdf_le(dir);
         if le == SampledSpectrum::ZERO || pdf_dir == 0.0 {
             return None;

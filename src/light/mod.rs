@@ -398,6 +398,11 @@ impl LightSet {
         self.lights.len()
     }
 
+    /// The lights, to change and make a set of anew.
+    pub fn into_lights(self) -> Vec<Light> {
+        self.lights
+    }
+
     /// No light emits anything.
     pub fn is_empty(&self) -> bool {
         self.selection.is_empty()
@@ -546,6 +551,47 @@ mod tests {
         assert_eq!(
             LightSet::new(Vec::new()).relative_emission(&[500.0]),
             vec![1.0]
+        );
+    }
+
+    #[test]
+    fn cut_out_lights_emit_only_where_present() {
+        use crate::material::cutout::{Cutout, CutoutMode};
+        let wl = SampledWavelengths::sample_visible(0.3);
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let light = |mode| {
+            let cutout = Cutout {
+                factor: 0.25,
+                texture: None,
+                mode,
+            };
+            AreaLight::new(tri, None, std::sync::Arc::new(emitter(2.0)), false)
+                .with_cutout(std::sync::Arc::new(cutout))
+        };
+        let whole = AreaLight::new(tri, None, std::sync::Arc::new(emitter(2.0)), false);
+        let p = Vec3::new(0.2, 0.2, 1.0);
+        let (u, d) = ((0.3, 0.6), (0.4, 0.7));
+        // Blending: a quarter of the emission, at the same density.
+        let (a, b) = (
+            whole.sample_li(p, u, &wl).unwrap(),
+            light(CutoutMode::Blend).sample_li(p, u, &wl).unwrap(),
+        );
+        assert_eq!((a.wi, a.pdf), (b.wi, b.pdf));
+        assert!((b.li - a.li * 0.25).abs().max_element() < 1e-6);
+        let (a, b) = (
+            whole.sample_le(u, d, &wl).unwrap(),
+            light(CutoutMode::Blend).sample_le(u, d, &wl).unwrap(),
+        );
+        assert_eq!((a.dir, a.pdf_pos, a.pdf_dir), (b.dir, b.pdf_pos, b.pdf_dir));
+        assert!((b.le - a.le * 0.25).abs().max_element() < 1e-6);
+        // A mask whose alpha is below the cutoff: nothing there emits.
+        let masked = light(CutoutMode::Mask { cutoff: 0.5 });
+        assert!(masked.sample_li(p, u, &wl).is_none());
+        assert!(masked.sample_le(u, d, &wl).is_none());
+        // A ray that finds the surface present sees its whole emission.
+        assert_eq!(
+            masked.l(Vec2::ZERO, Vec3::Z, &wl),
+            whole.l(Vec2::ZERO, Vec3::Z, &wl)
         );
     }
 

@@ -32,6 +32,17 @@ impl Cutout {
         self.factor * self.texture.as_ref().map_or(1.0, |t| t.linear(uv).x)
     }
 
+    /// The probability that a ray meets the surface at `uv`: 0 or 1 for a
+    /// mask, alpha for blending. What an emissive cut-out emits there, on
+    /// average, relative to the whole surface.
+    pub fn coverage(&self, uv: Vec2) -> f32 {
+        let alpha = self.alpha(uv);
+        match self.mode {
+            CutoutMode::Mask { cutoff } => f32::from(u8::from(alpha >= cutoff)),
+            CutoutMode::Blend => alpha.clamp(0.0, 1.0),
+        }
+    }
+
     /// Whether a ray meets the surface at `uv`; `u` is a uniform number
     /// that decides blending.
     #[inline]

@@ -106,7 +106,7 @@ pub struct Scene {
     has_scattering: bool,
     /// Per material, where its surfaces are absent; empty when no
     /// material has cut-outs (intersection then skips the test).
-    cutouts: Vec<Option<Cutout>>,
+    cutouts: Vec<Option<Arc<Cutout>>>,
     triangles: Vec<[Vec3; 3]>,
     shading: Vec<TriangleShading>,
     attributes: VertexAttributes,
@@ -345,11 +345,24 @@ impl Scene {
 
     /// The scene with cut-outs for the materials `cutouts` names.
     pub fn with_cutouts(mut self, cutouts: std::collections::HashMap<u32, Cutout>) -> Scene {
-        if !cutouts.is_empty() {
-            self.cutouts = (0..self.materials.len() as u32)
-                .map(|i| cutouts.get(&i).cloned())
-                .collect();
+        if cutouts.is_empty() {
+            return self;
         }
+        let cutouts: Vec<Option<Arc<Cutout>>> = (0..self.materials.len() as u32)
+            .map(|i| cutouts.get(&i).cloned().map(Arc::new))
+            .collect();
+        // Emissive triangles of cut-out materials emit only where present.
+        let mut lights = std::mem::take(&mut self.lights).into_lights();
+        for info in &self.shading {
+            if let (Some(c), Some(Light::Area(light))) = (
+                &cutouts[info.material as usize],
+                lights.get_mut(info.light as usize),
+            ) {
+                *light = light.clone().with_cutout(c.clone());
+            }
+        }
+        self.lights = LightSet::new(lights);
+        self.cutouts = cutouts;
         self
     }
 
