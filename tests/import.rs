@@ -1217,22 +1217,28 @@ fn stochastic_transparency_passes_the_expected_share_of_light() {
 fn gltf_extension_textures_vary_the_layers_over_the_surface() {
     // A thin film whose thickness texture is 0 on the left (100 nm) and 1
     // on the right (600 nm): the reflected colour differs between halves.
+    // The second material shifts the texture by half its width with
+    // KHR_texture_transform, which swaps the halves.
     let dir = tempfile::tempdir().unwrap();
     let mut b = GltfBuilder::default();
     let prim = assets::quad(&mut b, true);
     let texels: Vec<u8> = [[0u8, 0, 0, 255], [0, 255, 0, 255]].concat().repeat(2);
     let view = b.image_view(&assets::png(2, 2, &texels));
     let json = b.json(&format!(
-        r#""extensionsUsed":["KHR_materials_iridescence"],
-        "scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
-        "meshes":[{{"primitives":[{prim},"material":0}}]}}],
+        r#""extensionsUsed":["KHR_materials_iridescence","KHR_texture_transform"],
+        "scenes":[{{"nodes":[0,1]}}],"nodes":[{{"mesh":0}},{{"mesh":1,"translation":[3,0,0]}}],
+        "meshes":[{{"primitives":[{prim},"material":0}}]}},{{"primitives":[{prim},"material":1}}]}}],
         "samplers":[{{"magFilter":9728}}],
         "images":[{{"bufferView":{view},"mimeType":"image/png"}}],
         "textures":[{{"source":0,"sampler":0}}],
         "materials":[
           {{"pbrMetallicRoughness":{{"baseColorFactor":[0.02,0.02,0.02,1],"metallicFactor":0,"roughnessFactor":0.3}},
             "extensions":{{"KHR_materials_iridescence":{{"iridescenceFactor":1,"iridescenceIor":1.4,
-              "iridescenceThicknessMinimum":100,"iridescenceThicknessMaximum":600,"iridescenceThicknessTexture":{{"index":0}}}}}}}}
+              "iridescenceThicknessMinimum":100,"iridescenceThicknessMaximum":600,"iridescenceThicknessTexture":{{"index":0}}}}}}}},
+          {{"pbrMetallicRoughness":{{"baseColorFactor":[0.02,0.02,0.02,1],"metallicFactor":0,"roughnessFactor":0.3}},
+            "extensions":{{"KHR_materials_iridescence":{{"iridescenceFactor":1,"iridescenceIor":1.4,
+              "iridescenceThicknessMinimum":100,"iridescenceThicknessMaximum":600,"iridescenceThicknessTexture":{{"index":0,
+                "extensions":{{"KHR_texture_transform":{{"offset":[0.5,0]}}}}}}}}}}}}
         ]"#
     ));
     let f = assets::write_glb(dir.path(), "film", &json, &b.bin);
@@ -1262,4 +1268,7 @@ fn gltf_extension_textures_vary_the_layers_over_the_surface() {
         (hue(thin) - hue(thick)).abs().max_element() > 0.02,
         "{thin} vs {thick}"
     );
+    // Shifted by half: thick on the left, thin on the right.
+    assert_eq!(reflected(3.0 - 0.5), thick);
+    assert_eq!(reflected(3.0 + 0.5), thin);
 }

@@ -24,6 +24,56 @@ fn wrap_mode(m: WrappingMode) -> Wrap {
     }
 }
 
+/// KHR_texture_transform of one texture reference.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct UvTransform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+    /// The texture coordinate set it overrides the reference's with.
+    tex_coord: Option<u32>,
+}
+
+impl UvTransform {
+    /// The transform of a core texture slot.
+    fn of(t: gltf::texture::TextureTransform) -> Self {
+        Self {
+            offset: t.offset(),
+            rotation: t.rotation(),
+            scale: t.scale(),
+            tex_coord: t.tex_coord(),
+        }
+    }
+
+    /// The transform under a texture reference's `extensions` in JSON, as
+    /// extensions' own texture references carry it (the gltf crate reads it
+    /// only for the core slots). Entries absent or not numbers keep their
+    /// defaults.
+    fn from_json(info: &gltf::json::Value) -> Option<Self> {
+        let t = info.get("extensions")?.get("KHR_texture_transform")?;
+        let pair = |key: &str, default: [f32; 2]| {
+            t.get(key)
+                .and_then(|v| v.as_array())
+                .filter(|v| v.len() == 2)
+                .and_then(|v| Some([v[0].as_f64()? as f32, v[1].as_f64()? as f32]))
+                .unwrap_or(default)
+        };
+        Some(Self {
+            offset: pair("offset", [0.0, 0.0]),
+            rotation: t.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32,
+            scale: pair("scale", [1.0, 1.0]),
+            tex_coord: t.get("texCoord").and_then(|c| c.as_u64()).map(|c| c as u32),
+        })
+    }
+
+    /// uv' = [m0 m1 m2; m3 m4 m5] · (u, v, 1): translation · rotation · scale.
+    fn matrix(&self) -> [f32; 6] {
+        let ([ox, oy], [sx, sy]) = (self.offset, self.scale);
+        let (s, c) = self.rotation.sin_cos();
+        [c * sx, s * sy, ox, -s * sx, c * sy, oy]
+    }
+}
+
 impl Context<'_> {
     /// The texture behind a material's texture slot; a missing or broken
     /// image is a warning and the slot is left empty.
@@ -31,11 +81,11 @@ impl Context<'_> {
         &mut self,
         texture: gltf::Texture,
         tex_coord: u32,
-        transform: Option<gltf::texture::TextureTransform>,
+        transform: Option<UvTransform>,
         encoding: Encoding,
         slot: &str,
     ) -> Option<TextureRef> {
-        if tex_coord != 0 || transform.as_ref().and_then(|t| t.tex_coord()).unwrap_or(0) != 0 {
+        if tex_coord != 0 || transform.and_then(|t| t.tex_coord).unwrap_or(0) != 0 {
             self.ignored
                 .insert(format!("texture coordinate sets other than 0 ({slot})"));
         }
@@ -70,12 +120,7 @@ impl Context<'_> {
         match result {
             Ok(t) => Some(TextureRef {
                 texture: t,
-                transform: transform.map(|t| {
-                    let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
-                    let (s, c) = r.sin_cos();
-                    // KHR_texture_transform: translation · rotation · scale.
-                    [c * sx, s * sy, ox, -s * sx, c * sy, oy]
-                }),
+                transform: transform.map(|t| t.matrix()),
             }),
             Err(e) => {
                 self.warnings.push(format!(
@@ -122,7 +167,8 @@ impl Context<'_> {
             ));
             return None;
         };
-        self.texture(texture, tex_coord, None, encoding, key)
+        let transform = UvTransform::from_json(info);
+        self.texture(texture, tex_coord, transform, encoding, key)
     }
 
     /// KHR_materials_specular, _clearcoat, _sheen and _iridescence: their
@@ -238,7 +284,7 @@ impl Context<'_> {
                 self.texture(
                     info.texture(),
                     info.tex_coord(),
-                    info.texture_transform(),
+                    info.texture_transform().map(UvTransform::of),
                     Encoding::SrgbColour,
                     "baseColorTexture",
                 )
@@ -248,7 +294,7 @@ impl Context<'_> {
             self.texture(
                 info.texture(),
                 info.tex_coord(),
-                info.texture_transform(),
+                info.texture_transform().map(UvTransform::of),
                 Encoding::Linear,
                 "metallicRoughnessTexture",
             )
@@ -279,7 +325,7 @@ impl Context<'_> {
                 self.texture(
                     info.texture(),
                     info.tex_coord(),
-                    info.texture_transform(),
+                    info.texture_transform().map(UvTransform::of),
                     Encoding::Alpha,
                     "baseColorTexture",
                 )
@@ -372,7 +418,7 @@ impl Context<'_> {
                 self.texture(
                     info.texture(),
                     info.tex_coord(),
-                    info.texture_transform(),
+                    info.texture_transform().map(UvTransform::of),
                     Encoding::SrgbColour,
                     "emissiveTexture",
                 )
