@@ -5,7 +5,7 @@
 //! shrinks any failure to a minimal input). Bounded: a few hundred cases
 //! each, seconds in CI, where tools/test.sh fixes the seed so that a run is
 //! reproducible. For longer runs with fresh seeds:
-//! PROPTEST_CASES=100000 cargo test --release --test fuzz.
+//! PROPTEST_CASES=100000 cargo test --profile suite --test fuzz.
 
 mod common;
 

@@ -11,7 +11,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 @pytest.fixture(scope="session")
 def prism():
-    """Runs the prism binary (PRISM_BIN, or the release build tools/test.sh makes)."""
+    """Runs the prism binary (PRISM_BIN, which tools/test.sh sets to the build it makes; else the release build)."""
     binary = os.environ.get("PRISM_BIN", str(ROOT / "target" / "release" / "prism"))
     if not pathlib.Path(binary).exists():
         pytest.fail(f"{binary} is missing: run `cargo build --release` (tools/test.sh does)")
