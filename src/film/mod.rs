@@ -382,30 +382,15 @@ impl Film {
 
     pub fn add_tile(&mut self, tile: &FilmTile) {
         let n = self.layout.count as usize;
-        self.band(0, self.height).add_tile(tile);
+        // The whole film as one band.
+        for band in self.bands(0, self.height) {
+            band.into_inner().expect("not shared").add_tile(tile);
+        }
         for &(i, xyz) in &tile.splat_xyz {
             self.pixels[i as usize].xyz += xyz.as_dvec3();
         }
         for &(i, bucket, v) in &tile.splat_spectral {
             self.buckets[i as usize * n + bucket as usize] += v;
-        }
-    }
-
-    /// Rows `y0..y0 + rows` as a band that tiles inside it add to.
-    fn band(&mut self, y0: u32, rows: u32) -> FilmBand<'_> {
-        let (w, n) = (self.width as usize, self.layout.count as usize);
-        let (a, b) = (y0 as usize * w, (y0 + rows) as usize * w);
-        FilmBand {
-            y0,
-            width: self.width,
-            count: self.layout.count,
-            pixels: &mut self.pixels[a..b],
-            buckets: &mut self.buckets[a * n..b * n],
-            aovs: if self.aovs.is_empty() {
-                &mut []
-            } else {
-                &mut self.aovs[a..b]
-            },
         }
     }
 
