@@ -31,17 +31,17 @@ fn lambert_irradiance(p: DVec3, radiance: f64) -> f64 {
     0.5 * radiance * sum.abs()
 }
 
-fn scene(strategy: &str) -> prism::scene::Scene {
-    common::scene(&format!(
+/// A Lambertian floor under a light (`light`, its `[[shape]]` table), direct
+/// light only, found by `strategy`.
+fn floor_scene(strategy: &str, light: &str) -> String {
+    format!(
         r#"
         [camera]
         position = [0, 3, -5]
         look_at = [0, 0, 0]
 
-        [film]
-        max_depth = 1
-
         [integrator]
+        max_depth = 1
         strategy = "{strategy}"
 
         [materials.floor]
@@ -53,11 +53,17 @@ fn scene(strategy: &str) -> prism::scene::Scene {
         vertices = [[-50, 0, -50], [-50, 0, 50], [50, 0, 50], [50, 0, -50]]
         material = "floor"
 
-        [[shape]]   # faces down (−y) by its winding
-        type = "quad"
-        vertices = {LIGHT:?}
-        emission = 3.0
+        {light}
         "#
+    )
+}
+
+fn scene(strategy: &str) -> prism::scene::Scene {
+    common::scene(&floor_scene(
+        strategy,
+        &format!(
+            "[[shape]]   # faces down (−y) by its winding\ntype = \"quad\"\nvertices = {LIGHT:?}\nemission = 3.0"
+        ),
     ))
 }
 
@@ -162,30 +168,8 @@ fn cut_out_lights_emit_only_where_they_are_present() {
     card("half", "map_d matte.png");
     let scene = |name: &str, strategy: &str| {
         let path = dir.path().join(format!("{name}-{strategy}.toml"));
-        std::fs::write(
-            &path,
-            format!(
-                r#"
-                [camera]
-                position = [0, 3, -5]
-                look_at = [0, 0, 0]
-                [integrator]
-                max_depth = 1
-                strategy = "{strategy}"
-                [materials.floor]
-                type = "diffuse"
-                reflectance = 0.5
-                [[shape]]
-                type = "quad"
-                vertices = [[-50, 0, -50], [-50, 0, 50], [50, 0, 50], [50, 0, -50]]
-                material = "floor"
-                [[shape]]
-                type = "obj"
-                file = "{name}.obj"
-                "#
-            ),
-        )
-        .unwrap();
+        let light = format!("[[shape]]\ntype = \"obj\"\nfile = \"{name}.obj\"");
+        std::fs::write(&path, floor_scene(strategy, &light)).unwrap();
         prism::scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
     };
     let target = DVec3::new(0.3, 0.0, 0.1);
