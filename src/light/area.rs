@@ -76,13 +76,13 @@ impl AreaLight {
         self.area
     }
 
-    /// Relative power for light selection: area · emitting sides · mean radiance.
     /// The emitted spectrum (its shape, for choosing wavelengths; a
     /// texture's colour is left out).
     pub fn spectrum(&self) -> &Spectrum {
         &self.emitter.spectrum
     }
 
+    /// Relative power for light selection: area · emitting sides · mean radiance.
     pub fn power(&self) -> f64 {
         self.area as f64 * if self.two_sided { 2.0 } else { 1.0 } * self.emitter.mean()
     }

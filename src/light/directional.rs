@@ -33,12 +33,12 @@ impl DirectionalLight {
         Self { scene, ..self }
     }
 
-    /// Mean spectral irradiance × the scene's cross-section.
     /// The emitted spectrum (its shape, for choosing wavelengths).
     pub fn spectrum(&self) -> &Spectrum {
         &self.irradiance
     }
 
+    /// Mean spectral irradiance × the scene's cross-section.
     pub fn power(&self) -> f64 {
         let e = self.irradiance.average(LAMBDA_MIN, LAMBDA_MAX).max(0.0) as f64;
         e * self.scene.disc_area() as f64

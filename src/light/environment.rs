@@ -28,12 +28,12 @@ impl UniformEnvironment {
         Self { scene, ..self }
     }
 
-    /// Mean radiance × 4π × the scene's cross-section.
     /// The emitted spectrum (its shape, for choosing wavelengths).
     pub fn spectrum(&self) -> &Spectrum {
         &self.radiance
     }
 
+    /// Mean radiance × 4π × the scene's cross-section.
     pub fn power(&self) -> f64 {
         let l = self.radiance.average(LAMBDA_MIN, LAMBDA_MAX).max(0.0) as f64;
         let r = self.scene.radius;

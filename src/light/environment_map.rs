@@ -76,13 +76,13 @@ impl EnvironmentMap {
         Self { scene, ..self }
     }
 
-    /// Mean luminance × 4π × the scene's cross-section.
     /// The shape its texels share: D65, which each texel's smooth factor
     /// (its colour) multiplies.
     pub fn spectrum(&self) -> &Spectrum {
         &self.d65
     }
 
+    /// Mean luminance × 4π × the scene's cross-section.
     pub fn power(&self) -> f64 {
         let r = self.scene.radius as f64;
         self.mean_luminance * 4.0 * std::f64::consts::PI * std::f64::consts::PI * r * r

@@ -70,12 +70,12 @@ impl PointLight {
         }
     }
 
-    /// Mean spectral intensity × the solid angle it fills.
     /// The emitted spectrum (its shape, for choosing wavelengths).
     pub fn spectrum(&self) -> &Spectrum {
         &self.intensity
     }
 
+    /// Mean spectral intensity × the solid angle it fills.
     pub fn power(&self) -> f64 {
         let i = self.intensity.average(LAMBDA_MIN, LAMBDA_MAX).max(0.0) as f64;
         let solid_angle = match &self.cone {
