@@ -35,6 +35,7 @@ impl Cutout {
     /// The probability that a ray meets the surface at `uv`: 0 or 1 for a
     /// mask, alpha for blending. What an emissive cut-out emits there, on
     /// average, relative to the whole surface.
+    #[inline]
     pub fn coverage(&self, uv: Vec2) -> f32 {
         let alpha = self.alpha(uv);
         match self.mode {
@@ -43,14 +44,10 @@ impl Cutout {
         }
     }
 
-    /// Whether a ray meets the surface at `uv`; `u` is a uniform number
-    /// that decides blending.
+    /// Whether a ray meets the surface at `uv`; `u`, a uniform number in
+    /// [0, 1), decides blending.
     #[inline]
     pub fn present(&self, uv: Vec2, u: f32) -> bool {
-        let alpha = self.alpha(uv);
-        match self.mode {
-            CutoutMode::Mask { cutoff } => alpha >= cutoff,
-            CutoutMode::Blend => u < alpha,
-        }
+        u < self.coverage(uv)
     }
 }
