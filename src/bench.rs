@@ -71,6 +71,8 @@ pub struct BenchOptions {
     pub integrator: Option<crate::integrator::IntegratorKind>,
     /// The path tracer's splitting instead of the scene file's.
     pub split: Option<u32>,
+    /// Adaptive sampling in the rungs (`RenderOptions::adaptive`).
+    pub adaptive: bool,
 }
 
 /// The reference image: the given one, a cached render of this scene file
@@ -128,6 +130,7 @@ pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Res
             &RenderOptions {
                 seed: i as u64 + 1,
                 threads: opts.threads,
+                adaptive: opts.adaptive,
                 ..RenderOptions::with_spp(scene, spp)
             },
         )?;

@@ -176,6 +176,11 @@ enum Command {
         /// with it too).
         #[arg(long, value_name = "N")]
         split: Option<u32>,
+        /// Adaptive sampling in every rung (not the reference): each
+        /// rung's samples per pixel on average, spread where a pilot of its
+        /// first samples finds the relative error high.
+        #[arg(long)]
+        adaptive: bool,
     },
     /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
     Info {
@@ -389,6 +394,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             out,
             integrator,
             split,
+            adaptive,
         } => {
             let opts = prism::bench::BenchOptions {
                 ladder: spp,
@@ -398,6 +404,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out_dir: out,
                 integrator,
                 split,
+                adaptive,
             };
             prism::bench::run(&scene, resolution, &opts)?;
             Ok(ExitCode::SUCCESS)

@@ -268,9 +268,9 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             counts.iter().max().copied().unwrap_or(0),
         );
         eprintln!(
-            "adaptive: {lo} to {hi} samples per pixel (mean {:.1}), after a pilot of {} samples not in the image",
+            "adaptive: {lo} to {hi} samples per pixel (mean {:.1}), counts chosen after a pilot of the first {} of every pixel",
             counts.iter().sum::<u64>() as f64 / counts.len().max(1) as f64,
-            stats.pilot_samples
+            stats.pilot_spp
         );
     }
     match stats.stop {
