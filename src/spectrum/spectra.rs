@@ -15,10 +15,11 @@ pub struct TabulatedSpectrum {
     /// for tables with the dense copy below, which bisect only to build it).
     segment_at_nm: Vec<u32>,
     /// When every knot lies on a whole nanometre (measured data usually
-    /// does): the values at each nanometre from the first knot to the last,
-    /// so a lookup is one subtraction and two loads — and exactly the same
-    /// piecewise-linear function.
-    dense: Option<Vec<f32>>,
+    /// does): for each nanometre from the first knot to the one before the
+    /// last, the values there and a nanometre on, so a lookup is one
+    /// subtraction and one load — and exactly the same piecewise-linear
+    /// function.
+    dense: Option<Vec<[f32; 2]>>,
 }
 
 impl TabulatedSpectrum {
@@ -51,10 +52,10 @@ impl TabulatedSpectrum {
         };
         if integral {
             let (first, last) = (table.lambdas[0], table.lambdas[table.lambdas.len() - 1]);
-            let dense = (0..=(last - first) as u32)
+            let values: Vec<f32> = (0..=(last - first) as u32)
                 .map(|nm| table.eval_sparse(first + nm as f32))
                 .collect();
-            table.dense = Some(dense);
+            table.dense = Some(values.windows(2).map(|w| [w[0], w[1]]).collect());
         }
         table
     }
@@ -64,12 +65,13 @@ impl TabulatedSpectrum {
             return self.eval_sparse(lambda);
         };
         let x = lambda - self.lambdas[0];
-        if !(x >= 0.0 && x <= (dense.len() - 1) as f32) {
+        if !(x >= 0.0 && x <= dense.len() as f32) {
             return 0.0;
         }
-        let i = (x as usize).min(dense.len().saturating_sub(2));
+        let i = (x as usize).min(dense.len() - 1);
         let t = x - i as f32;
-        dense[i] + t * (dense[i + 1] - dense[i])
+        let [v0, v1] = dense[i];
+        v0 + t * (v1 - v0)
     }
 
     /// The table at four wavelengths at once (the dense case in SIMD).
@@ -78,14 +80,18 @@ impl TabulatedSpectrum {
             return SampledSpectrum::from_array(lambda.to_array().map(|l| self.eval_sparse(l)));
         };
         let x = lambda - glam::Vec4::splat(self.lambdas[0]);
-        let last = (dense.len() - 1) as f32;
+        let last = dense.len() as f32;
         let inside = x.cmpge(glam::Vec4::ZERO) & x.cmple(glam::Vec4::splat(last));
         let xc = x.clamp(glam::Vec4::ZERO, glam::Vec4::splat(last));
-        let i = xc.floor().min(glam::Vec4::splat((dense.len() - 2) as f32));
-        let t = xc - i;
-        let ia = i.to_array().map(|v| v as usize);
-        let v0 = glam::Vec4::from_array(ia.map(|i| dense[i]));
-        let v1 = glam::Vec4::from_array(ia.map(|i| dense[i + 1]));
+        // Truncation is the floor here (xc ≥ 0), in SIMD; the last knot
+        // takes the last segment at t = 1.
+        let i = xc
+            .as_ivec4()
+            .min(glam::IVec4::splat(dense.len() as i32 - 1));
+        let t = xc - i.as_vec4();
+        let segments = i.to_array().map(|i| dense[i as usize]);
+        let v0 = glam::Vec4::from_array(segments.map(|s| s[0]));
+        let v1 = glam::Vec4::from_array(segments.map(|s| s[1]));
         let v = v0 + t * (v1 - v0);
         glam::Vec4::select(inside, v, glam::Vec4::ZERO)
     }
@@ -115,7 +121,7 @@ impl TabulatedSpectrum {
         self.values.iter_mut().for_each(|v| *v *= s);
         // The dense copy is the same function: it scales with the knots.
         if let Some(dense) = &mut self.dense {
-            dense.iter_mut().for_each(|v| *v *= s);
+            dense.iter_mut().flatten().for_each(|v| *v *= s);
         }
         self
     }
