@@ -171,15 +171,28 @@ pub fn intersect(
     ))
 }
 
-/// The lanes of a bit mask as a SIMD mask.
+/// The lanes of a bit mask as a SIMD mask (one load from a table of the
+/// sixteen, instead of building it lane by lane on every test).
 #[inline]
 fn mask(lanes: u32) -> BVec4A {
-    BVec4A::new(
-        lanes & 1 != 0,
-        lanes & 2 != 0,
-        lanes & 4 != 0,
-        lanes & 8 != 0,
-    )
+    const fn lane_mask(lanes: usize) -> BVec4A {
+        BVec4A::new(
+            lanes & 1 != 0,
+            lanes & 2 != 0,
+            lanes & 4 != 0,
+            lanes & 8 != 0,
+        )
+    }
+    const MASKS: [BVec4A; 16] = {
+        let mut m = [BVec4A::FALSE; 16];
+        let mut i = 0;
+        while i < 16 {
+            m[i] = lane_mask(i);
+            i += 1;
+        }
+        m
+    };
+    MASKS[(lanes & 15) as usize]
 }
 
 #[cfg(test)]
