@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec3, Vec4};
 
 use super::csv;
 use super::{SampledSpectrum, SampledWavelengths, Spectrum, TabulatedSpectrum};
@@ -20,6 +20,9 @@ pub struct ColourMatching {
     pub xyz: Vec<Vec3>,
     /// Σ ȳ over the 1 nm table; dividing by it makes a constant radiance of 1 have Y = 1.
     pub y_integral: f32,
+    /// Each nanometre's segment of `xyz`, its two ends as SIMD vectors
+    /// (w = 0): what a sample's wavelengths look up.
+    segments: Vec<[Vec4; 2]>,
 }
 
 /// The CIE standard observers prism can integrate with (`film.observer`);
@@ -85,7 +88,15 @@ impl ColourMatching {
             })
             .collect();
         let y_integral = xyz.iter().map(|v| v.y as f64).sum::<f64>() as f32;
-        ColourMatching { xyz, y_integral }
+        let segments = xyz
+            .windows(2)
+            .map(|w| [w[0].extend(0.0), w[1].extend(0.0)])
+            .collect();
+        ColourMatching {
+            xyz,
+            y_integral,
+            segments,
+        }
     }
 
     /// x̄ȳz̄ at a wavelength, linearly interpolated; zero outside 360–830 nm.
@@ -106,14 +117,27 @@ impl ColourMatching {
     /// wavelengths (pdf 0) are skipped.
     #[inline]
     pub fn sampled_to_xyz(&self, l: SampledSpectrum, wl: &SampledWavelengths) -> Vec3 {
-        let mut sum = Vec3::ZERO;
+        let mut sum = Vec4::ZERO;
         for i in 0..4 {
             let pdf = wl.pdf[i];
             if pdf > 0.0 {
-                sum += self.at(wl.lambda[i]) * (l[i] / pdf);
+                sum += self.at4(wl.lambda[i]) * (l[i] / pdf);
             }
         }
-        sum / (4.0 * self.y_integral)
+        (sum / (4.0 * self.y_integral)).truncate()
+    }
+
+    /// [`ColourMatching::at`] in a SIMD vector (w = 0): the same numbers.
+    #[inline]
+    fn at4(&self, lambda: f32) -> Vec4 {
+        let t = lambda - CMF_START as f32;
+        if !(0.0..=(CMF_END - CMF_START) as f32).contains(&t) {
+            return Vec4::ZERO;
+        }
+        let i = (t as usize).min(self.segments.len() - 1);
+        let f = t - i as f32;
+        let [a, b] = self.segments[i];
+        a * (1.0 - f) + b * f
     }
 
     /// XYZ of a spectrum by the 1 nm Riemann sum over 360–830 nm, with the
@@ -226,6 +250,20 @@ pub fn d65() -> &'static TabulatedSpectrum {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn simd_lookup_is_the_same_function() {
+        for observer in Observer::ALL {
+            let c = observer.cmfs();
+            for k in 0..60_000 {
+                let lambda = 350.0 + k as f32 * 0.0081;
+                let (a, b) = (c.at(lambda), c.at4(lambda));
+                assert_eq!(a, b.truncate(), "{} at {lambda}", observer.name());
+                assert_eq!(b.w, 0.0);
+            }
+            assert_eq!(c.at4(830.0).truncate(), c.at(830.0));
+        }
+    }
 
     #[test]
     fn y_integral_matches_colour_science() {
