@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
+use crate::film::convergence::PrefixError;
 use crate::film::{Film, FilmTile};
 use crate::integrator::aov::Aovs;
 use crate::integrator::PathCounters;
@@ -287,6 +288,9 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
     if options.adaptive {
         // Each pixel's sample count.
         film += 4 * pixels;
+    } else if !scene.integrator.splats() {
+        // The error estimate's images at the last doublings.
+        film += crate::film::convergence::BYTES_PER_PIXEL * pixels;
     }
     let [x0, y0, x1, y1] = options.region;
     let region =
@@ -348,6 +352,10 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let pilot = options.adaptive.then(|| pilot_spp(requested_spp));
     let mut targets: Option<Vec<u32>> = None;
     let mut samples = samples;
+    // A uniform render's error from its images at doublings of samples;
+    // passes end at every power of two so that they are seen.
+    let mut prefix = (!scene.integrator.splats() && !options.adaptive)
+        .then(|| PrefixError::new([rx0, ry0, rx1, ry1]));
     let pixels = rx1.saturating_sub(rx0) as u64 * ry1.saturating_sub(ry0) as u64;
     // An adaptive render's counts average the requested samples.
     let total = AtomicU64::new(pixels * samples.len() as u64);
@@ -396,6 +404,10 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                     .min(samples.end);
             if let (Some(p), None) = (pilot, &targets) {
                 range.end = range.end.min(p);
+            }
+            if prefix.is_some() {
+                let next = (first - samples.start + 1).next_power_of_two();
+                range.end = range.end.min(samples.start.saturating_add(next));
             }
             let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
             rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
@@ -495,9 +507,17 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             if let Some(hook) = &options.after_pass {
                 (hook.0)(&film);
             }
+            if let Some(p) = &mut prefix {
+                p.record(&film, (first - samples.start) as u64);
+            }
             // Estimated between passes only where it decides when to stop.
             if !scene.integrator.splats() && options.target_error.is_some() {
-                rel_mse = Some(film.estimated_rel_mse([rx0, ry0, rx1, ry1]));
+                rel_mse = Some(estimated_rel_mse(
+                    &film,
+                    prefix.as_ref(),
+                    first - samples.start,
+                    [rx0, ry0, rx1, ry1],
+                ));
             }
             let reached = options
                 .target_error
@@ -519,7 +539,12 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     });
     bar.finish_and_clear();
     if !scene.integrator.splats() {
-        rel_mse = Some(film.estimated_rel_mse([rx0, ry0, rx1, ry1]));
+        rel_mse = Some(estimated_rel_mse(
+            &film,
+            prefix.as_ref(),
+            first - samples.start,
+            [rx0, ry0, rx1, ry1],
+        ));
     }
     let taken = film.total_samples();
     let stats = RenderStats {
@@ -535,6 +560,15 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
         pilot_spp: pilot.unwrap_or(0),
     };
     (film, stats)
+}
+
+/// The relMSE of a film whose pixels have `spp` samples each: from its
+/// doublings where three are recorded, else from the spread of each
+/// pixel's samples (which overstates the error of Sobol samples).
+fn estimated_rel_mse(film: &Film, prefix: Option<&PrefixError>, spp: u32, region: [u32; 4]) -> f64 {
+    prefix
+        .and_then(|p| p.estimate(film, spp as u64))
+        .unwrap_or_else(|| film.estimated_rel_mse(region))
 }
 
 /// Samples per pixel of the adaptive pilot for an average of `spp`: a

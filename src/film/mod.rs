@@ -3,6 +3,7 @@
 //! an interrupted render is still an unbiased image.
 
 pub mod colour;
+pub mod convergence;
 pub mod display;
 pub mod output;
 pub mod spectral_exr;
