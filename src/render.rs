@@ -406,8 +406,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                 range.end = range.end.min(p);
             }
             if prefix.is_some() {
-                let next = (first - samples.start + 1).next_power_of_two();
-                range.end = range.end.min(samples.start.saturating_add(next));
+                if let Some(next) = (first - samples.start + 1).checked_next_power_of_two() {
+                    range.end = range.end.min(samples.start.saturating_add(next));
+                }
             }
             let (prepared, prepare_counters) = scene.integrator.prepare(scene, seed, range.start);
             rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);

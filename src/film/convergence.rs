@@ -33,9 +33,10 @@ impl PrefixError {
     }
 
     /// Notes the film when every pixel of the region has `spp` samples
-    /// (a power of two, at least 2; other counts are ignored).
+    /// (a power of two, at least 4, so that estimates start at 8 samples
+    /// a pixel; other counts are ignored).
     pub fn record(&mut self, film: &Film, spp: u64) {
-        if spp < 2 || !spp.is_power_of_two() || self.snapshots.last().is_some_and(|s| s.0 >= spp) {
+        if spp < 4 || !spp.is_power_of_two() || self.snapshots.last().is_some_and(|s| s.0 >= spp) {
             return;
         }
         let [x0, y0, x1, y1] = self.region;
