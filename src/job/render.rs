@@ -273,20 +273,20 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             stats.pilot_spp
         );
     }
+    // After an adaptive pilot, pixels stop at their own counts.
+    let taken = if job.adaptive && stats.spp > stats.pilot_spp {
+        format!(
+            "each pixel has its adaptive count of samples or {}, whichever is fewer",
+            stats.spp
+        )
+    } else {
+        format!("every pixel has {} samples", stats.spp)
+    };
     match stats.stop {
         Stop::Complete => {}
-        Stop::Interrupted => eprintln!(
-            "interrupted after the pass under way: every pixel has {} samples",
-            stats.spp
-        ),
-        Stop::TimeBudget => eprintln!(
-            "the time budget is spent: every pixel has {} samples",
-            stats.spp
-        ),
-        Stop::ErrorTarget => eprintln!(
-            "the estimated relMSE is below the target: every pixel has {} samples",
-            stats.spp
-        ),
+        Stop::Interrupted => eprintln!("interrupted after the pass under way: {taken}"),
+        Stop::TimeBudget => eprintln!("the time budget is spent: {taken}"),
+        Stop::ErrorTarget => eprintln!("the estimated relMSE is below the target: {taken}"),
     }
     let exr = suffixed(&stem, "exr");
     let png = suffixed(&stem, "png");
