@@ -564,8 +564,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
 }
 
 /// The relMSE of a film whose pixels have `spp` samples each: from its
-/// doublings where three are recorded, else from the spread of each
-/// pixel's samples (which overstates the error of Sobol samples).
+/// last doubling where two powers of two are recorded, else from the
+/// spread of each pixel's samples (which overstates the error of Sobol
+/// samples).
 fn estimated_rel_mse(film: &Film, prefix: Option<&PrefixError>, spp: u32, region: [u32; 4]) -> f64 {
     prefix
         .and_then(|p| p.estimate(film, spp as u64))
@@ -735,21 +736,14 @@ mod tests {
     /// A film whose pixels have `n` samples of luminance `value(x, y)`
     /// half the time and 0 otherwise (variance from the spread).
     fn pilot_film(w: u32, h: u32, n: u64, value: impl Fn(u32, u32) -> f64) -> Film {
-        let layout = crate::film::SpectralLayout {
-            min: 380.0,
-            max: 780.0,
-            count: 1,
-        };
-        let mut tile = FilmTile::new(0, 0, w, h, w, layout);
-        for (i, p) in tile.pixels.iter_mut().enumerate() {
-            let v = value(i as u32 % w, i as u32 / w);
-            p.samples = n;
-            p.xyz = glam::DVec3::splat(v * n as f64 / 2.0);
-            p.y_squared = v * v * n as f64 / 2.0;
-        }
-        let mut film = Film::new(w, h, layout);
-        film.add_tile(&tile);
-        film
+        Film::from_pixel_sums(w, h, |x, y| {
+            let v = value(x, y);
+            crate::film::PixelSums {
+                xyz: glam::DVec3::splat(v * n as f64 / 2.0),
+                y_squared: v * v * n as f64 / 2.0,
+                samples: n,
+            }
+        })
     }
 
     #[test]

@@ -294,8 +294,8 @@ fn adaptive_sampling_spends_the_budget_where_the_error_is_and_stays_unbiased() {
     let mut blocks: Vec<(f64, u64)> = (0..h / 4)
         .flat_map(|by| (0..w / 4).map(move |bx| (bx, by)))
         .map(|(bx, by)| {
-            let px = (0..16).map(|i| (bx * 4 + i % 4, by * 4 + i / 4));
-            px.clone()
+            (0..16)
+                .map(|i| (bx * 4 + i % 4, by * 4 + i / 4))
                 .map(|(x, y)| (rel(x, y), adaptive.sums(x, y).samples))
                 .fold((0.0, 0), |(e, n), (pe, pn)| (e + pe, n + pn))
         })

@@ -76,25 +76,18 @@ impl PrefixError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::{FilmTile, SpectralLayout};
+    use crate::film::PixelSums;
 
     /// A film whose pixels hold the given luminance samples.
     fn film(w: u32, samples: &[Vec<f64>]) -> Film {
-        let layout = SpectralLayout {
-            min: 380.0,
-            max: 780.0,
-            count: 1,
-        };
-        let h = samples.len() as u32 / w;
-        let mut tile = FilmTile::new(0, 0, w, h, w, layout);
-        for (p, s) in tile.pixels.iter_mut().zip(samples) {
-            p.samples = s.len() as u64;
-            p.xyz = glam::DVec3::splat(s.iter().sum());
-            p.y_squared = s.iter().map(|v| v * v).sum();
-        }
-        let mut film = Film::new(w, h, layout);
-        film.add_tile(&tile);
-        film
+        Film::from_pixel_sums(w, samples.len() as u32 / w, |x, y| {
+            let s = &samples[(y * w + x) as usize];
+            PixelSums {
+                xyz: glam::DVec3::splat(s.iter().sum()),
+                y_squared: s.iter().map(|v| v * v).sum(),
+                samples: s.len() as u64,
+            }
+        })
     }
 
     /// Independent samples (α = 1): the squared difference between the

@@ -381,6 +381,24 @@ impl Film {
         Some((Vec3::new(v[0], v[1], v[2]), normal, v[6]))
     }
 
+    /// A film of one spectral bucket whose pixels hold `sums(x, y)` (for
+    /// tests of what reads the sums).
+    #[cfg(test)]
+    pub(crate) fn from_pixel_sums(w: u32, h: u32, sums: impl Fn(u32, u32) -> PixelSums) -> Film {
+        let layout = SpectralLayout {
+            min: 380.0,
+            max: 780.0,
+            count: 1,
+        };
+        let mut tile = FilmTile::new(0, 0, w, h, w, layout);
+        for (i, p) in tile.pixels.iter_mut().enumerate() {
+            *p = sums(i as u32 % w, i as u32 / w);
+        }
+        let mut film = Film::new(w, h, layout);
+        film.add_tile(&tile);
+        film
+    }
+
     pub fn add_tile(&mut self, tile: &FilmTile) {
         let n = self.layout.count as usize;
         // The whole film as one band.
