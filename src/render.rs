@@ -351,7 +351,6 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let requested_spp = samples.len() as u32;
     let pilot = options.adaptive.then(|| pilot_spp(requested_spp));
     let mut targets: Option<Vec<u32>> = None;
-    let mut samples = samples;
     // A uniform render's error from its images at doublings of samples;
     // passes end at every power of two so that they are seen.
     let mut prefix = (!scene.integrator.splats() && !options.adaptive)
@@ -427,14 +426,16 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                 let mut taken = 0;
                 for y in y0..y0 + h {
                     for x in x0..x0 + w {
-                        let end = match &targets {
-                            Some(t) => range
-                                .end
-                                .min(t[((y - ry0) * region_width + x - rx0) as usize]),
-                            None => range.end,
+                        let (start, end) = match (&targets, pilot) {
+                            (Some(t), Some(p)) => {
+                                let target = t[((y - ry0) * region_width + x - rx0) as usize];
+                                let at = |k| adaptive_progress(k, target, p, requested_spp);
+                                (at(range.start), at(range.end))
+                            }
+                            _ => (range.start, range.end),
                         };
-                        taken += end.saturating_sub(range.start) as u64;
-                        for index in range.start..end {
+                        taken += end.saturating_sub(start) as u64;
+                        for index in start..end {
                             let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
                             let s = scene.integrator.sample(
                                 scene,
@@ -498,7 +499,6 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             if let (Some(p), None) = (pilot, &targets) {
                 if first >= p {
                     let t = adaptive_targets(&film, [rx0, ry0, rx1, ry1], requested_spp, p);
-                    samples.end = t.iter().copied().max().unwrap_or(first).max(first);
                     let sum = t.iter().map(|&n| n as u64).sum();
                     total.store(sum, Ordering::Relaxed);
                     bar.set_length(sum);
@@ -578,6 +578,22 @@ fn estimated_rel_mse(film: &Film, prefix: Option<&PrefixError>, spp: u32, region
 /// `spp` (the pilot's samples are the image's first).
 pub fn pilot_spp(spp: u32) -> u32 {
     (spp / 16).clamp(4, 64).min(spp)
+}
+
+/// Where an adaptive pixel with `target` samples stands when the render has
+/// advanced `k` of its `spp` samples a pixel (the index its samples reach):
+/// during the pilot, at `k`; after it, at the same share of its own count
+/// past the pilot as the render is of `spp`, reaching `target` at `spp`.
+/// So every pass spreads over the whole image (a pass that advanced only
+/// the pixels still short of their counts would leave threads idle on the
+/// few tiles holding them), and a render stopped early by a time budget or
+/// an error target is adaptive already, each pixel with its share.
+pub fn adaptive_progress(k: u32, target: u32, pilot: u32, spp: u32) -> u32 {
+    if k <= pilot || spp <= pilot {
+        return k.min(target);
+    }
+    let past = u64::from(target.saturating_sub(pilot)) * u64::from(k - pilot);
+    pilot + (past / u64::from(spp - pilot)) as u32
 }
 
 /// Pixels on each side of a pixel whose pilot errors decide its count
@@ -731,6 +747,38 @@ mod tests {
         assert_eq!(sizes, [1, 1, 2, 4, 8, 16, 16, 16]);
         assert_eq!((0..4).map(|k| pass_size(k, 1)).collect::<Vec<_>>(), [1; 4]);
         assert_eq!(pass_size(40, 4), 4);
+    }
+
+    #[test]
+    fn adaptive_passes_advance_every_pixel_by_its_share() {
+        let (pilot, spp) = (4, 64);
+        let targets = [16, 64, 100, 142, 1024];
+        for &t in &targets {
+            // The pilot as it is; the whole count at the end; never back.
+            for k in 0..=pilot {
+                assert_eq!(adaptive_progress(k, t, pilot, spp), k);
+            }
+            assert_eq!(adaptive_progress(spp, t, pilot, spp), t);
+            let steps: Vec<u32> = (0..=spp)
+                .map(|k| adaptive_progress(k, t, pilot, spp))
+                .collect();
+            assert!(steps.windows(2).all(|w| w[0] <= w[1]), "{steps:?}");
+        }
+        // Halfway through the rest, each pixel is halfway through its own rest.
+        let half = pilot + (spp - pilot) / 2;
+        assert_eq!(adaptive_progress(half, 142, pilot, spp), 4 + 69);
+        assert_eq!(adaptive_progress(half, 16, pilot, spp), 4 + 6);
+        // A pass's samples spread over the pixels in proportion to their
+        // counts: counts averaging 64 take the pass's 16 samples a pixel on
+        // average (within rounding), not 16 each until some are full.
+        let counts = [16u32, 40, 64, 88, 112];
+        let taken: u32 = counts
+            .iter()
+            .map(|&t| adaptive_progress(36, t, pilot, spp) - adaptive_progress(20, t, pilot, spp))
+            .sum();
+        assert!((taken as i32 - 16 * 5).abs() <= 5, "{taken}");
+        // Budgets no bigger than the pilot: every pixel takes them all.
+        assert_eq!(adaptive_progress(3, 4, 4, 4), 3);
     }
 
     /// A film whose pixels have `n` samples of luminance `value(x, y)`

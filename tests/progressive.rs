@@ -313,6 +313,50 @@ fn adaptive_sampling_spends_the_budget_where_the_error_is_and_stays_unbiased() {
     common::assert_blocks_agree(&adaptive, &uniform, 5.0, "adaptive against uniform");
 }
 
+/// An adaptive render stopped early (here by an error target) is adaptive
+/// already: past the pilot, every pixel has the same share of the rest of
+/// its own count, the count a complete render gives it.
+#[test]
+fn an_adaptive_render_stopped_early_has_each_pixels_share_of_its_count() {
+    let scene = cornell();
+    let spp = 64;
+    let options = RenderOptions {
+        adaptive: true,
+        threads: Some(2),
+        seed: 13,
+        ..RenderOptions::with_spp(&scene, spp)
+    };
+    let (complete, stats) = render(&scene, &options).unwrap();
+    let target = 2.5 * stats.estimated_rel_mse.unwrap();
+    let (early, early_stats) = render(
+        &scene,
+        &RenderOptions {
+            target_error: Some(target),
+            ..options
+        },
+    )
+    .unwrap();
+    assert_eq!(early_stats.stop, prism::render::Stop::ErrorTarget);
+    let (k, pilot) = (early_stats.spp, early_stats.pilot_spp);
+    assert!(
+        k > pilot && k < spp,
+        "stopped after {k} of {spp} (pilot {pilot})"
+    );
+    let mut spread = (u64::MAX, 0);
+    for y in 0..early.height {
+        for x in 0..early.width {
+            let full = complete.sums(x, y).samples as u32;
+            let n = early.sums(x, y).samples;
+            assert_eq!(
+                n,
+                prism::render::adaptive_progress(k, full, pilot, spp) as u64
+            );
+            spread = (spread.0.min(n), spread.1.max(n));
+        }
+    }
+    assert!(spread.1 > 2 * spread.0, "counts {spread:?}");
+}
+
 #[test]
 fn adaptive_sampling_is_refused_where_it_cannot_work() {
     let scene = cornell();

@@ -273,11 +273,14 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             stats.pilot_spp
         );
     }
-    // After an adaptive pilot, pixels stop at their own counts.
-    let taken = if job.adaptive && stats.spp > stats.pilot_spp {
+    // After an adaptive pilot, every pixel advances by the same share of
+    // the rest of its own count.
+    let requested = options.samples.len() as u32;
+    let taken = if job.adaptive && stats.spp > stats.pilot_spp && requested > stats.pilot_spp {
         format!(
-            "each pixel has its adaptive count of samples or {}, whichever is fewer",
-            stats.spp
+            "every pixel has its first {} samples and {:.0}% of the rest of its adaptive count",
+            stats.pilot_spp,
+            100.0 * f64::from(stats.spp - stats.pilot_spp) / f64::from(requested - stats.pilot_spp)
         )
     } else {
         format!("every pixel has {} samples", stats.spp)
