@@ -477,7 +477,8 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                 // a batch at a time, so the image is the same for any
                 // thread count.
                 for batch in tiles.chunks(TILES_PER_BATCH) {
-                    let results: Vec<FilmTile> = batch.par_iter().map(render_tile).collect();
+                    let results: Vec<FilmTile> =
+                        batch.par_iter().with_max_len(1).map(render_tile).collect();
                     for tile in &results {
                         film.add_tile(tile);
                     }
@@ -488,7 +489,12 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                 // that rendered it (a pixel's sums are the same in any order
                 // of tiles, and no thread waits for a batch).
                 let bands = film.bands(ry0, TILE_SIZE);
-                tiles.par_iter().for_each(|t| {
+                // Every tile a job of its own that an idle thread can take:
+                // left to itself rayon cuts the list into a few long runs
+                // per thread, and a run of costly tiles (the Cornell Box's
+                // ceiling, or where adaptive counts are high) then keeps
+                // one thread busy while the others have nothing to steal.
+                tiles.par_iter().with_max_len(1).for_each(|t| {
                     let tile = render_tile(t);
                     let band = &bands[((t.1 - ry0) / TILE_SIZE) as usize];
                     band.lock().expect("no panic while adding").add_tile(&tile);
