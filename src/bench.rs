@@ -201,6 +201,9 @@ pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOption
         resolution,
         integrator: opts.integrator,
         split: opts.split,
+        // The rungs are measured as RGB, as Mitsuba's are: no spectral
+        // buckets to sum.
+        no_spectral: true,
         ..Default::default()
     };
     let scene = crate::scene::load_with(scene_path, &overrides)?;

@@ -269,6 +269,7 @@ const SPLATS_PER_SAMPLE: u64 = 8;
 /// display values (measured: 1.55 GiB peak for 2048², 40 buckets, with a
 /// film of 0.85 GiB).
 pub fn film_bytes(pixels: u64, buckets: u32, spectral: bool, aovs: bool) -> (u64, u64) {
+    let buckets = if spectral { buckets } else { 0 };
     let per_pixel = std::mem::size_of::<crate::film::PixelSums>() as u64
         + 4 * buckets as u64
         + if aovs { AOV_BYTES } else { 0 };
@@ -304,13 +305,15 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
     };
     let batch = region.min(tiles * (TILE_SIZE as u64).pow(2));
     let pass = largest_pass(scene, options) as u64;
-    // Per sample: up to four spectral entries of 12 bytes; splats add XYZ.
-    let mut per_sample = 4 * 12;
+    // Per sample: splats add XYZ and spectral entries of 12 bytes.
+    let mut per_sample = 0;
     if scene.integrator.splats() {
         let depth = scene.integrator.max_depth() as u64 + 1;
         per_sample += SPLATS_PER_SAMPLE.min(depth) * (16 + 4 * 12);
     }
+    let buckets = if f.spectral_output { f.layout.count } else { 0 };
     let per_pixel = std::mem::size_of::<crate::film::PixelSums>() as u64
+        + 4 * buckets as u64
         + if aovs { AOV_BYTES } else { 0 }
         + per_sample * pass;
     MemoryEstimate {
@@ -333,7 +336,13 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let seed = options.seed;
     let [rx0, ry0, rx1, ry1] = options.region;
     let (rx1, ry1) = (rx1.min(f.width), ry1.min(f.height));
-    let layout = f.layout;
+    // Spectral buckets only where the spectral EXR is written: summing
+    // them costs memory traffic (and a 40-bucket 512² film 40 MiB).
+    let layout = if f.spectral_output {
+        f.layout
+    } else {
+        f.layout.without_buckets()
+    };
     let mut film = Film::new(f.width, f.height, layout);
     let aovs = f.aovs.traced().then(|| Aovs::new(f.observer));
     if aovs.is_some() {
