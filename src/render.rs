@@ -298,24 +298,25 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
         (x1.min(f.width).saturating_sub(x0) as u64) * (y1.min(f.height).saturating_sub(y0) as u64);
     // Tiles in flight: a batch of them for splatting integrators (added in
     // order), else one a thread (each adds itself when done).
+    let buckets = if f.spectral_output { f.layout.count } else { 0 };
+    let pass = largest_pass(scene, options);
+    let spectrum = crate::film::tile_spectrum_bytes(buckets, pass);
     let tiles = if scene.integrator.splats() {
-        TILES_PER_BATCH as u64
+        tiles_per_batch(spectrum) as u64
     } else {
         options.threads.unwrap_or_else(rayon::current_num_threads) as u64
     };
     let batch = region.min(tiles * (TILE_SIZE as u64).pow(2));
-    let pass = largest_pass(scene, options) as u64;
     // Per sample: splats add XYZ and spectral entries of 12 bytes.
     let mut per_sample = 0;
     if scene.integrator.splats() {
         let depth = scene.integrator.max_depth() as u64 + 1;
         per_sample += SPLATS_PER_SAMPLE.min(depth) * (16 + 4 * 12);
     }
-    let buckets = if f.spectral_output { f.layout.count } else { 0 };
     let per_pixel = std::mem::size_of::<crate::film::PixelSums>() as u64
-        + 4 * buckets as u64
+        + spectrum
         + if aovs { AOV_BYTES } else { 0 }
-        + per_sample * pass;
+        + per_sample * pass as u64;
     MemoryEstimate {
         loading: scene.load_peak_bytes,
         scene: scene.memory_bytes(),
@@ -327,8 +328,19 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
 
 /// Tiles of a splatting integrator rendered before their results are
 /// added to the film: bounds the memory that finished tiles hold (splats
-/// can be many) while keeping the order of additions fixed.
-const TILES_PER_BATCH: usize = 256;
+/// can be many) while keeping the order of additions fixed. Fewer where
+/// each tile's spectral sums (`spectrum` bytes a pixel) are large, so a
+/// batch's stay within `BATCH_SPECTRUM_BYTES`; never fewer than 16, so
+/// many threads still share a batch. The count depends on the scene and
+/// the pass alone, never on the threads: the image is the same for any
+/// number of them.
+fn tiles_per_batch(spectrum: u64) -> usize {
+    let tile_bytes = (TILE_SIZE * TILE_SIZE) as u64 * spectrum.max(1);
+    (BATCH_SPECTRUM_BYTES / tile_bytes).clamp(16, 256) as usize
+}
+
+/// What a batch of tiles may hold in spectral sums.
+const BATCH_SPECTRUM_BYTES: u64 = 64 << 20;
 
 fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats) {
     let f = &scene.film;
@@ -422,8 +434,9 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
             rays.fetch_add(prepare_counters.rays, Ordering::Relaxed);
             overflows.fetch_add(prepare_counters.stack_overflows, Ordering::Relaxed);
             let render_tile = |&(x0, y0, w, h): &(u32, u32, u32, u32)| {
-                let mut tile =
-                    FilmTile::new(x0, y0, w, h, f.width, layout).with_observer(f.observer);
+                let mut tile = FilmTile::new(x0, y0, w, h, f.width, layout)
+                    .with_observer(f.observer)
+                    .for_samples(range.len() as u32);
                 if aovs.is_some() {
                     tile = tile.with_aovs();
                 }
@@ -485,7 +498,8 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
                 // Splats land anywhere: tiles are added in a fixed order,
                 // a batch at a time, so the image is the same for any
                 // thread count.
-                for batch in tiles.chunks(TILES_PER_BATCH) {
+                let spectrum = crate::film::tile_spectrum_bytes(layout.count, range.len() as u32);
+                for batch in tiles.chunks(tiles_per_batch(spectrum)) {
                     let results: Vec<FilmTile> =
                         batch.par_iter().with_max_len(1).map(render_tile).collect();
                     for tile in &results {
@@ -762,6 +776,21 @@ mod tests {
         assert_eq!(sizes, [1, 1, 2, 4, 8, 16, 16, 16]);
         assert_eq!((0..4).map(|k| pass_size(k, 1)).collect::<Vec<_>>(), [1; 4]);
         assert_eq!(pass_size(40, 4), 4);
+    }
+
+    #[test]
+    fn splat_batches_bound_their_spectral_sums() {
+        use crate::film::tile_spectrum_bytes;
+        // 40 buckets: dense, 40 KiB a tile.
+        assert_eq!(tile_spectrum_bytes(40, 1), 160);
+        assert_eq!(tiles_per_batch(tile_spectrum_bytes(40, 1)), 256);
+        assert_eq!(tiles_per_batch(tile_spectrum_bytes(0, 16)), 256);
+        // 1024 buckets at 16 samples a pixel: dense, 1 MiB a tile.
+        assert_eq!(tile_spectrum_bytes(1024, 16), 4096);
+        assert_eq!(tiles_per_batch(tile_spectrum_bytes(1024, 16)), 64);
+        // 4096 buckets: entries, a few a sample.
+        assert_eq!(tile_spectrum_bytes(4096, 16), 48 * 16);
+        assert_eq!(tiles_per_batch(1 << 20), 16);
     }
 
     #[test]
