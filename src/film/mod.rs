@@ -248,7 +248,7 @@ impl FilmTile {
             y0,
             width,
             pixels: vec![PixelSums::default(); n],
-            buckets: vec![0.0; n * layout.count as usize],
+            buckets: Vec::new(),
             sparse: Vec::new(),
             splat_xyz: Vec::new(),
             splat_spectral: Vec::new(),
@@ -271,15 +271,15 @@ impl FilmTile {
 
     /// The same tile for `samples` samples a pixel: its spectral sums
     /// dense where the buckets are at most `DENSE_BUCKETS_PER_SAMPLE` per
-    /// sample, else a list of entries.
+    /// sample, else (and in a tile made without this) a list of entries.
     pub fn for_samples(self, samples: u32) -> Self {
-        if dense_spectrum(self.layout.count, samples) {
-            self
-        } else {
-            Self {
-                buckets: Vec::new(),
-                ..self
-            }
+        let count = self.layout.count;
+        if count == 0 || !dense_spectrum(count, samples) {
+            return self;
+        }
+        Self {
+            buckets: vec![0.0; self.pixels.len() * count as usize],
+            ..self
         }
     }
 
