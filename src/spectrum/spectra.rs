@@ -61,17 +61,11 @@ impl TabulatedSpectrum {
     }
 
     pub fn eval(&self, lambda: f32) -> f32 {
-        let Some(dense) = &self.dense else {
+        if self.dense.is_none() {
             return self.eval_sparse(lambda);
-        };
-        let x = lambda - self.lambdas[0];
-        if !(x >= 0.0 && x <= dense.len() as f32) {
-            return 0.0;
         }
-        let i = (x as usize).min(dense.len() - 1);
-        let t = x - i as f32;
-        let [v0, v1] = dense[i];
-        v0 + t * (v1 - v0)
+        // One dense lookup, the SIMD one (the same value in every lane).
+        self.sample(glam::Vec4::splat(lambda))[0]
     }
 
     /// The table at four wavelengths at once (the dense case in SIMD).
