@@ -264,12 +264,12 @@ const PROCESS_BYTES: u64 = 48 << 20;
 /// roulette keeps to a few; at most `max_depth + 1`.
 const SPLATS_PER_SAMPLE: u64 = 8;
 
-/// Bytes a film of `pixels` holds, and what writing it adds: the spectral
-/// planes (4 bytes a bucket), the sample counts, R, G, B and the PNG's
-/// display values (measured: 1.55 GiB peak for 2048², 40 buckets, with a
+/// Bytes a film of `pixels` holds with `buckets` spectral sums a pixel
+/// (none where no spectral EXR is written), and what writing it adds: the
+/// spectral planes (4 bytes a bucket), the sample counts, R, G, B and the
+/// PNG's display values (measured: 1.55 GiB peak for 2048², 40 buckets, with a
 /// film of 0.85 GiB).
 pub fn film_bytes(pixels: u64, buckets: u32, spectral: bool, aovs: bool) -> (u64, u64) {
-    let buckets = if spectral { buckets } else { 0 };
     let per_pixel = std::mem::size_of::<crate::film::PixelSums>() as u64
         + 4 * buckets as u64
         + if aovs { AOV_BYTES } else { 0 };
@@ -285,7 +285,8 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
     let f = &scene.film;
     let aovs = f.aovs.traced();
     let pixels = f.width as u64 * f.height as u64;
-    let (mut film, writing) = film_bytes(pixels, f.layout.count, f.spectral_output, aovs);
+    let buckets = f.kept_layout().count;
+    let (mut film, writing) = film_bytes(pixels, buckets, f.spectral_output, aovs);
     if options.adaptive {
         // Each pixel's sample count.
         film += 4 * pixels;
@@ -298,7 +299,6 @@ pub fn memory_estimate(scene: &Scene, options: &RenderOptions) -> MemoryEstimate
         (x1.min(f.width).saturating_sub(x0) as u64) * (y1.min(f.height).saturating_sub(y0) as u64);
     // Tiles in flight: a batch of them for splatting integrators (added in
     // order), else one a thread (each adds itself when done).
-    let buckets = if f.spectral_output { f.layout.count } else { 0 };
     let pass = largest_pass(scene, options);
     let spectrum = crate::film::tile_spectrum_bytes(buckets, pass);
     let tiles = if scene.integrator.splats() {
@@ -348,13 +348,7 @@ fn render_in_pool(scene: &Scene, options: &RenderOptions) -> (Film, RenderStats)
     let seed = options.seed;
     let [rx0, ry0, rx1, ry1] = options.region;
     let (rx1, ry1) = (rx1.min(f.width), ry1.min(f.height));
-    // Spectral buckets only where the spectral EXR is written: summing
-    // them costs memory traffic (and a 40-bucket 512² film 40 MiB).
-    let layout = if f.spectral_output {
-        f.layout
-    } else {
-        f.layout.without_buckets()
-    };
+    let layout = f.kept_layout();
     let mut film = Film::new(f.width, f.height, layout);
     let aovs = f.aovs.traced().then(|| Aovs::new(f.observer));
     if aovs.is_some() {
