@@ -10,6 +10,7 @@
 
 pub mod bench;
 pub mod camera;
+pub mod cpu;
 pub mod film;
 pub mod geometry;
 pub mod input;
