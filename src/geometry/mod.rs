@@ -4,6 +4,7 @@
 pub mod bvh;
 pub mod frame;
 pub mod huge_pages;
+pub mod lanes;
 pub mod offset;
 pub mod triangle;
 pub mod triangle4;

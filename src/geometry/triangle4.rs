@@ -1,12 +1,17 @@
 //! The watertight ray/triangle test (`triangle::intersect`) on four
 //! triangles at once: a BVH leaf stores its triangles four to a packet, as
-//! structure of arrays, so one run of SIMD arithmetic tests them all. Each
-//! lane does exactly the scalar test's operations in the same order, so the
-//! hits (distances and barycentrics, bit for bit) are the scalar test's.
+//! structure of arrays, so one run of SIMD arithmetic tests them all. With
+//! AVX2 two packets (a leaf of five to eight) are tested as one, eight
+//! lanes wide. Each lane does exactly the scalar test's operations in the
+//! same order, so the hits (distances and barycentrics, bit for bit) are
+//! the scalar test's.
 
-use glam::{BVec4A, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 use super::gamma;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use super::lanes::F32x8;
+use super::lanes::Lanes;
 use super::triangle::{RayShear, TriangleHit};
 
 /// Up to four triangles: `v[k][axis]` holds vertex k's coordinate on that
@@ -43,26 +48,30 @@ impl Triangle4 {
 }
 
 /// The per-ray values of the test, splatted across lanes.
-pub struct RayShear4 {
+pub struct PacketShear<L> {
     k: [usize; 3],
-    origin: [Vec4; 3],
-    sx: Vec4,
-    sy: Vec4,
-    sz: Vec4,
+    origin: [L; 3],
+    sx: L,
+    sy: L,
+    sz: L,
 }
 
-impl RayShear4 {
+impl<L: Lanes> PacketShear<L> {
     pub fn new(s: &RayShear) -> Self {
         let k = [s.kx, s.ky, s.kz];
         Self {
             k,
-            origin: k.map(|a| Vec4::splat(s.origin[a])),
-            sx: Vec4::splat(s.sx),
-            sy: Vec4::splat(s.sy),
-            sz: Vec4::splat(s.sz),
+            origin: k.map(|a| L::splat(s.origin[a])),
+            sx: L::splat(s.sx),
+            sy: L::splat(s.sy),
+            sz: L::splat(s.sz),
         }
     }
 }
+
+pub type RayShear4 = PacketShear<Vec4>;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub type RayShear8 = PacketShear<F32x8>;
 
 /// The nearest hit among the lanes in `lanes` (a bit mask) with t in
 /// (0, t_max): the lane and its hit. Ties go to the lowest lane, as the
@@ -74,9 +83,37 @@ pub fn intersect(
     lanes: u32,
     t_max: f32,
 ) -> Option<(usize, TriangleHit)> {
+    intersect_lanes(s, &p.v, lanes, t_max)
+}
+
+/// `intersect` on two packets as one of eight lanes: lanes 0–3 are `p`'s,
+/// 4–7 `q`'s.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[inline]
+pub fn intersect_pair(
+    s: &RayShear8,
+    p: &Triangle4,
+    q: &Triangle4,
+    lanes: u32,
+    t_max: f32,
+) -> Option<(usize, TriangleHit)> {
+    let v = std::array::from_fn(|k| {
+        std::array::from_fn(|axis| F32x8::from_halves(p.v[k][axis], q.v[k][axis]))
+    });
+    intersect_lanes(s, &v, lanes, t_max)
+}
+
+/// The test on `v[k][axis]`, vertex k's coordinates in each lane.
+#[inline(always)]
+fn intersect_lanes<L: Lanes>(
+    s: &PacketShear<L>,
+    v: &[[L; 3]; 3],
+    lanes: u32,
+    t_max: f32,
+) -> Option<(usize, TriangleHit)> {
     // Translate to the ray origin, permute so the ray runs along z, shear.
     let vertex = |k: usize| {
-        let v = &p.v[k];
+        let v = &v[k];
         let z = v[s.k[2]] - s.origin[2];
         let x = (v[s.k[0]] - s.origin[0]) + s.sx * z;
         let y = (v[s.k[1]] - s.origin[1]) + s.sy * z;
@@ -90,12 +127,13 @@ pub fn intersect(
     let mut e0 = x1 * y2 - y1 * x2;
     let mut e1 = x2 * y0 - y2 * x0;
     let mut e2 = x0 * y1 - y0 * x1;
-    let on_edge = (e0.cmpeq(Vec4::ZERO) | e1.cmpeq(Vec4::ZERO) | e2.cmpeq(Vec4::ZERO)).bitmask();
+    let on_edge =
+        L::bits(e0.cmpeq(L::splat(0.0)) | e1.cmpeq(L::splat(0.0)) | e2.cmpeq(L::splat(0.0)));
     if on_edge & lanes != 0 {
         // Exactly on an edge in f32: decide in f64 so neighbours agree.
-        let [x0, y0, x1, y1, x2, y2] = [x0, y0, x1, y1, x2, y2].map(|v| v.to_array());
+        let [x0, y0, x1, y1, x2, y2] = [x0, y0, x1, y1, x2, y2].map(L::to_array);
         let (mut f0, mut f1, mut f2) = (e0.to_array(), e1.to_array(), e2.to_array());
-        for l in 0..4 {
+        for l in 0..L::WIDTH {
             if on_edge & lanes & (1 << l) != 0 {
                 let edge = |ax: f32, ay: f32, bx: f32, by: f32| {
                     (ax as f64 * by as f64 - ay as f64 * bx as f64) as f32
@@ -105,48 +143,48 @@ pub fn intersect(
                 f2[l] = edge(x0[l], y0[l], x1[l], y1[l]);
             }
         }
-        (e0, e1, e2) = (Vec4::from(f0), Vec4::from(f1), Vec4::from(f2));
+        (e0, e1, e2) = (L::from_array(f0), L::from_array(f1), L::from_array(f2));
     }
-    let zero = Vec4::ZERO;
+    let zero = L::splat(0.0);
     let negative = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
     let positive = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
     let det = e0 + e1 + e2;
-    let mut ok = !(negative & positive) & det.cmpne(zero) & mask(lanes);
-    if !ok.any() {
+    let mut ok = !(negative & positive) & det.cmpne(zero) & L::mask(lanes);
+    if L::bits(ok) == 0 {
         return None;
     }
 
     // Scaled distance, compared against the range without dividing.
     let (z0, z1, z2) = (z0 * s.sz, z1 * s.sz, z2 * s.sz);
     let t_scaled = e0 * z0 + e1 * z1 + e2 * z2;
-    let range = Vec4::splat(t_max) * det;
+    let range = L::splat(t_max) * det;
     let below = det.cmplt(zero) & (t_scaled.cmpge(zero) | t_scaled.cmplt(range));
     let above = det.cmpgt(zero) & (t_scaled.cmple(zero) | t_scaled.cmpgt(range));
-    ok &= !(below | above);
-    if !ok.any() {
+    ok = ok & !(below | above);
+    if L::bits(ok) == 0 {
         return None;
     }
-    let inv_det = Vec4::ONE / det;
+    let inv_det = L::splat(1.0) / det;
     let t = t_scaled * inv_det;
-    ok &= t.cmplt(Vec4::splat(t_max));
+    ok = ok & t.cmplt(L::splat(t_max));
 
     // Reject t that is not surely positive given the rounding above.
-    let max3 = |a: Vec4, b: Vec4, c: Vec4| a.abs().max(b.abs()).max(c.abs());
+    let max3 = |a: L, b: L, c: L| a.abs().max(b.abs()).max(c.abs());
     let max_z = max3(z0, z1, z2);
     let max_x = max3(x0, x1, x2);
     let max_y = max3(y0, y1, y2);
-    let delta_z = Vec4::splat(gamma(3)) * max_z;
-    let delta_x = Vec4::splat(gamma(5)) * (max_x + max_z);
-    let delta_y = Vec4::splat(gamma(5)) * (max_y + max_z);
-    let delta_e = Vec4::splat(2.0)
-        * (Vec4::splat(gamma(2)) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    let delta_z = L::splat(gamma(3)) * max_z;
+    let delta_x = L::splat(gamma(5)) * (max_x + max_z);
+    let delta_y = L::splat(gamma(5)) * (max_y + max_z);
+    let delta_e =
+        L::splat(2.0) * (L::splat(gamma(2)) * max_x * max_y + delta_y * max_x + delta_x * max_y);
     let max_e = max3(e0, e1, e2);
-    let delta_t = Vec4::splat(3.0)
-        * (Vec4::splat(gamma(3)) * max_e * max_z + delta_e * max_z + delta_z * max_e)
+    let delta_t = L::splat(3.0)
+        * (L::splat(gamma(3)) * max_e * max_z + delta_e * max_z + delta_z * max_e)
         * inv_det.abs();
-    ok &= t.cmpgt(delta_t);
+    ok = ok & t.cmpgt(delta_t);
 
-    let hits = ok.bitmask();
+    let hits = L::bits(ok);
     if hits == 0 {
         return None;
     }
@@ -161,7 +199,8 @@ pub fn intersect(
             lane = l;
         }
     }
-    let inv = inv_det[lane];
+    let inv = inv_det.to_array()[lane];
+    let (e0, e1, e2) = (e0.to_array(), e1.to_array(), e2.to_array());
     Some((
         lane,
         TriangleHit {
@@ -169,30 +208,6 @@ pub fn intersect(
             b: [e0[lane] * inv, e1[lane] * inv, e2[lane] * inv],
         },
     ))
-}
-
-/// The lanes of a bit mask as a SIMD mask (one load from a table of the
-/// sixteen, instead of building it lane by lane on every test).
-#[inline]
-fn mask(lanes: u32) -> BVec4A {
-    const fn lane_mask(lanes: usize) -> BVec4A {
-        BVec4A::new(
-            lanes & 1 != 0,
-            lanes & 2 != 0,
-            lanes & 4 != 0,
-            lanes & 8 != 0,
-        )
-    }
-    const MASKS: [BVec4A; 16] = {
-        let mut m = [BVec4A::FALSE; 16];
-        let mut i = 0;
-        while i < 16 {
-            m[i] = lane_mask(i);
-            i += 1;
-        }
-        m
-    };
-    MASKS[(lanes & 15) as usize]
 }
 
 #[cfg(test)]
@@ -213,8 +228,14 @@ mod tests {
     fn lanes_match_the_scalar_test_bit_for_bit() {
         let mut s = 11u64;
         let mut agreed = 0;
-        for case in 0..20_000 {
-            let n = 1 + case % 4;
+        // Eight triangles go to the pair test where there is one.
+        let most = if cfg!(all(target_arch = "x86_64", target_feature = "avx2")) {
+            8
+        } else {
+            4
+        };
+        for case in 0..40_000 {
+            let n = 1 + case % most;
             let tris: Vec<[Vec3; 3]> = (0..n)
                 .map(|_| {
                     let c = Vec3::new(next(&mut s), next(&mut s), next(&mut s)) * 2.0;
@@ -243,14 +264,19 @@ mod tests {
                         _ => Some((i, h)),
                     },
                 );
-            let packet = Triangle4::new(&tris, 100);
             let lanes = (1u32 << n) - 1;
-            let got = intersect(&RayShear4::new(&shear), &packet, lanes, ray.t_max);
+            let (got, prim) = if n <= 4 {
+                let packet = Triangle4::new(&tris, 100);
+                let got = intersect(&RayShear4::new(&shear), &packet, lanes, ray.t_max);
+                (got, got.map(|(lane, _)| packet.prim(lane)))
+            } else {
+                pair(&shear, &tris, lanes, ray.t_max)
+            };
             match (scalar, got) {
                 (None, None) => {}
                 (Some((i, h)), Some((lane, g))) => {
                     assert_eq!(i, lane, "case {case}");
-                    assert_eq!(packet.prim(lane), 100 + i as u32);
+                    assert_eq!(prim, Some(100 + i as u32));
                     assert_eq!(h.t.to_bits(), g.t.to_bits(), "case {case}");
                     assert_eq!(h.b.map(f32::to_bits), g.b.map(f32::to_bits), "case {case}");
                     agreed += 1;
@@ -259,6 +285,32 @@ mod tests {
             }
         }
         assert!(agreed > 2000, "too few hits to compare: {agreed}");
+    }
+
+    /// Five to eight triangles as two packets through `intersect_pair`.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    fn pair(
+        shear: &RayShear,
+        tris: &[[Vec3; 3]],
+        lanes: u32,
+        t_max: f32,
+    ) -> (Option<(usize, TriangleHit)>, Option<u32>) {
+        let (p, q) = (
+            Triangle4::new(&tris[..4], 100),
+            Triangle4::new(&tris[4..], 104),
+        );
+        let got = intersect_pair(&RayShear8::new(shear), &p, &q, lanes, t_max);
+        (got, got.map(|(lane, _)| [p, q][lane / 4].prim(lane % 4)))
+    }
+
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+    fn pair(
+        _: &RayShear,
+        _: &[[Vec3; 3]],
+        _: u32,
+        _: f32,
+    ) -> (Option<(usize, TriangleHit)>, Option<u32>) {
+        unreachable!("at most four triangles a case without AVX2")
     }
 
     #[test]

@@ -1,0 +1,317 @@
+//! SIMD lanes for the packet ray/triangle test: four (`glam::Vec4`, SSE)
+//! or, in builds with AVX2, eight (`F32x8`). The test is written once over
+//! `Lanes`; each operation is the IEEE one in every lane, so both widths
+//! give the scalar test's results bit for bit.
+
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+
+use glam::{BVec4A, Vec4};
+
+/// The operations the packet test needs, lane by lane. Comparisons are
+/// ordered (false where a lane is NaN) except `ne`, as in SSE.
+pub trait Lanes:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
+    type Mask: Copy
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
+    const WIDTH: usize;
+    fn splat(x: f32) -> Self;
+    fn cmpeq(self, other: Self) -> Self::Mask;
+    fn cmpne(self, other: Self) -> Self::Mask;
+    fn cmplt(self, other: Self) -> Self::Mask;
+    fn cmple(self, other: Self) -> Self::Mask;
+    fn cmpgt(self, other: Self) -> Self::Mask;
+    fn cmpge(self, other: Self) -> Self::Mask;
+    fn abs(self) -> Self;
+    /// `max` as SSE/AVX compute it: the second operand where either is NaN.
+    fn max(self, other: Self) -> Self;
+    /// Bit i set where lane i of the mask is.
+    fn bits(mask: Self::Mask) -> u32;
+    /// The mask of the lanes whose bits are set in `bits`.
+    fn mask(bits: u32) -> Self::Mask;
+    /// The lanes, the first `WIDTH` of eight.
+    fn to_array(self) -> [f32; 8];
+    fn from_array(lanes: [f32; 8]) -> Self;
+}
+
+impl Lanes for Vec4 {
+    type Mask = BVec4A;
+    const WIDTH: usize = 4;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Vec4::splat(x)
+    }
+    #[inline(always)]
+    fn cmpeq(self, other: Self) -> BVec4A {
+        self.cmpeq(other)
+    }
+    #[inline(always)]
+    fn cmpne(self, other: Self) -> BVec4A {
+        self.cmpne(other)
+    }
+    #[inline(always)]
+    fn cmplt(self, other: Self) -> BVec4A {
+        self.cmplt(other)
+    }
+    #[inline(always)]
+    fn cmple(self, other: Self) -> BVec4A {
+        self.cmple(other)
+    }
+    #[inline(always)]
+    fn cmpgt(self, other: Self) -> BVec4A {
+        self.cmpgt(other)
+    }
+    #[inline(always)]
+    fn cmpge(self, other: Self) -> BVec4A {
+        self.cmpge(other)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        Vec4::max(self, other)
+    }
+    #[inline(always)]
+    fn bits(mask: BVec4A) -> u32 {
+        mask.bitmask()
+    }
+    /// One load from a table of the sixteen, instead of building the mask
+    /// lane by lane on every test.
+    #[inline(always)]
+    fn mask(bits: u32) -> BVec4A {
+        const MASKS: [BVec4A; 16] = {
+            let mut m = [BVec4A::FALSE; 16];
+            let mut i = 0;
+            while i < 16 {
+                m[i] = BVec4A::new(i & 1 != 0, i & 2 != 0, i & 4 != 0, i & 8 != 0);
+                i += 1;
+            }
+            m
+        };
+        MASKS[(bits & 15) as usize]
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f32; 8] {
+        let [a, b, c, d] = Vec4::to_array(&self);
+        [a, b, c, d, 0.0, 0.0, 0.0, 0.0]
+    }
+    #[inline(always)]
+    fn from_array(l: [f32; 8]) -> Self {
+        Vec4::new(l[0], l[1], l[2], l[3])
+    }
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub use avx::{F32x8, Mask8};
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+mod avx {
+    // SAFETY (every `unsafe` below): the intrinsics need AVX/AVX2, which
+    // this module is only compiled with; none touches memory but its own
+    // locals.
+    use std::arch::x86_64::*;
+    use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+
+    use glam::Vec4;
+
+    use super::Lanes;
+
+    /// Eight f32 lanes in one AVX register.
+    #[derive(Clone, Copy, Debug)]
+    pub struct F32x8(__m256);
+
+    /// Eight lanes of all-ones or all-zeros.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Mask8(__m256);
+
+    impl F32x8 {
+        /// Lanes 0–3 from `low`, 4–7 from `high`.
+        #[inline(always)]
+        pub fn from_halves(low: Vec4, high: Vec4) -> Self {
+            unsafe { F32x8(_mm256_set_m128(high.into(), low.into())) }
+        }
+    }
+
+    macro_rules! binary {
+        ($trait:ident, $method:ident, $type:ident, $intrinsic:ident) => {
+            impl $trait for $type {
+                type Output = $type;
+                #[inline(always)]
+                fn $method(self, other: $type) -> $type {
+                    unsafe { $type($intrinsic(self.0, other.0)) }
+                }
+            }
+        };
+    }
+    binary!(Add, add, F32x8, _mm256_add_ps);
+    binary!(Sub, sub, F32x8, _mm256_sub_ps);
+    binary!(Mul, mul, F32x8, _mm256_mul_ps);
+    binary!(Div, div, F32x8, _mm256_div_ps);
+    binary!(BitAnd, bitand, Mask8, _mm256_and_ps);
+    binary!(BitOr, bitor, Mask8, _mm256_or_ps);
+
+    impl Not for Mask8 {
+        type Output = Mask8;
+        #[inline(always)]
+        fn not(self) -> Mask8 {
+            unsafe {
+                let ones = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+                Mask8(_mm256_xor_ps(self.0, ones))
+            }
+        }
+    }
+
+    impl Lanes for F32x8 {
+        type Mask = Mask8;
+        const WIDTH: usize = 8;
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            unsafe { F32x8(_mm256_set1_ps(x)) }
+        }
+        #[inline(always)]
+        fn cmpeq(self, other: Self) -> Mask8 {
+            unsafe { Mask8(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmpne(self, other: Self) -> Mask8 {
+            unsafe { Mask8(_mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmplt(self, other: Self) -> Mask8 {
+            unsafe { Mask8(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmple(self, other: Self) -> Mask8 {
+            unsafe { Mask8(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmpgt(self, other: Self) -> Mask8 {
+            unsafe { Mask8(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmpge(self, other: Self) -> Mask8 {
+            unsafe { Mask8(_mm256_cmp_ps::<_CMP_GE_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            unsafe {
+                let magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(i32::MAX));
+                F32x8(_mm256_and_ps(self.0, magnitude))
+            }
+        }
+        #[inline(always)]
+        fn max(self, other: Self) -> Self {
+            unsafe { F32x8(_mm256_max_ps(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn bits(mask: Mask8) -> u32 {
+            unsafe { _mm256_movemask_ps(mask.0) as u32 }
+        }
+        #[inline(always)]
+        fn mask(bits: u32) -> Mask8 {
+            unsafe {
+                let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let set = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits);
+                Mask8(_mm256_castsi256_ps(_mm256_cmpeq_epi32(set, lane_bits)))
+            }
+        }
+        #[inline(always)]
+        fn to_array(self) -> [f32; 8] {
+            unsafe { std::mem::transmute::<__m256, [f32; 8]>(self.0) }
+        }
+        #[inline(always)]
+        fn from_array(lanes: [f32; 8]) -> Self {
+            unsafe { F32x8(_mm256_loadu_ps(lanes.as_ptr())) }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both widths agree with scalar IEEE arithmetic and comparisons, NaN,
+    /// infinities and signed zeros included.
+    fn check<L: Lanes>() {
+        let values = [
+            0.0,
+            -0.0,
+            1.5,
+            -2.25,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            3.0e-39,
+        ];
+        let n = L::WIDTH;
+        for shift in 0..8 {
+            let a: [f32; 8] = std::array::from_fn(|i| values[i]);
+            let b: [f32; 8] = std::array::from_fn(|i| values[(i + shift) % 8]);
+            let (x, y) = (L::from_array(a), L::from_array(b));
+            let bits = |f: &dyn Fn(f32, f32) -> bool| {
+                (0..n)
+                    .filter(|&i| f(a[i], b[i]))
+                    .map(|i| 1u32 << i)
+                    .sum::<u32>()
+            };
+            assert_eq!(L::bits(x.cmpeq(y)), bits(&|p, q| p == q));
+            assert_eq!(L::bits(x.cmpne(y)), bits(&|p, q| p != q));
+            assert_eq!(L::bits(x.cmplt(y)), bits(&|p, q| p < q));
+            assert_eq!(L::bits(x.cmple(y)), bits(&|p, q| p <= q));
+            assert_eq!(L::bits(x.cmpgt(y)), bits(&|p, q| p > q));
+            assert_eq!(L::bits(x.cmpge(y)), bits(&|p, q| p >= q));
+            let lanes = |v: L| {
+                v.to_array()[..n]
+                    .iter()
+                    .map(|f| f.to_bits())
+                    .collect::<Vec<_>>()
+            };
+            let expect = |f: &dyn Fn(f32, f32) -> f32| {
+                (0..n).map(|i| f(a[i], b[i]).to_bits()).collect::<Vec<_>>()
+            };
+            let nan_safe = |v: Vec<u32>| {
+                v.into_iter()
+                    .map(|b| {
+                        if f32::from_bits(b).is_nan() {
+                            u32::MAX
+                        } else {
+                            b
+                        }
+                    })
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(nan_safe(lanes(x + y)), nan_safe(expect(&|p, q| p + q)));
+            assert_eq!(nan_safe(lanes(x - y)), nan_safe(expect(&|p, q| p - q)));
+            assert_eq!(nan_safe(lanes(x * y)), nan_safe(expect(&|p, q| p * q)));
+            assert_eq!(nan_safe(lanes(x / y)), nan_safe(expect(&|p, q| p / q)));
+            assert_eq!(nan_safe(lanes(x.abs())), nan_safe(expect(&|p, _| p.abs())));
+            // SSE's max: the second operand unless the first is greater.
+            assert_eq!(lanes(x.max(y)), expect(&|p, q| if p > q { p } else { q }));
+            let mask = (shift as u32 * 37) & ((1 << n) - 1);
+            assert_eq!(L::bits(L::mask(mask)), mask);
+            assert_eq!(
+                L::bits(!L::mask(mask) & L::mask(0xff)),
+                !mask & ((1 << n) - 1)
+            );
+            assert_eq!(L::bits(L::mask(mask) | L::mask(1)), mask | 1);
+        }
+    }
+
+    #[test]
+    fn four_lanes_are_ieee_lane_by_lane() {
+        check::<Vec4>();
+    }
+
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[test]
+    fn eight_lanes_are_ieee_lane_by_lane() {
+        check::<F32x8>();
+        let halves =
+            F32x8::from_halves(Vec4::new(1.0, 2.0, 3.0, 4.0), Vec4::new(5.0, 6.0, 7.0, 8.0));
+        assert_eq!(halves.to_array(), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+    }
+}
