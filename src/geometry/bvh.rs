@@ -9,6 +9,7 @@
 use glam::{Vec3, Vec4};
 
 use super::huge_pages::HugeArray;
+use super::lanes::Lanes;
 use super::triangle::{RayShear, TriangleHit};
 use super::triangle4::{self, RayShear4, Triangle4};
 use super::{gamma, Aabb, Ray};
@@ -50,19 +51,24 @@ impl Node {
 
 /// Children per node: a multiple of four (each four share SIMD slab tests).
 const WIDTH: usize = 8;
-/// The groups of four children a node's boxes are stored in.
-const QUADS: usize = WIDTH / 4;
 
-/// A wide node: the children's boxes as structure of arrays, four to a
-/// group (`lo[q][axis]` lanes are children 4q..4q+3), and per child either
-/// a node index (`count == 0`) or a leaf: its first packet and its number
-/// of triangles. Unused slots have empty boxes (+∞ on both sides), which no
+/// The lanes a slab test runs on: all of a node's children at once with
+/// AVX2, four at a time otherwise.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+type Slab = super::lanes::F32x8;
+#[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+type Slab = Vec4;
+
+/// A wide node: the children's boxes as structure of arrays (`lo[axis][k]`
+/// is child k's lower bound on that axis), and per child either a node
+/// index (`count == 0`) or a leaf: its first packet and its number of
+/// triangles. Unused slots have empty boxes (+∞ on both sides), which no
 /// ray hits.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct WideNode {
-    lo: [[Vec4; 3]; QUADS],
-    hi: [[Vec4; 3]; QUADS],
+    lo: [[f32; WIDTH]; 3],
+    hi: [[f32; WIDTH]; 3],
     child: [u32; WIDTH],
     count: [u32; WIDTH],
 }
@@ -150,14 +156,10 @@ impl Bvh {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         let shear8 = triangle4::RayShear8::new(&ray_shear);
         let inv = ray.dir.recip();
-        let o = [
-            Vec4::splat(ray.origin.x),
-            Vec4::splat(ray.origin.y),
-            Vec4::splat(ray.origin.z),
-        ];
-        let id = [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)];
+        let o = [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat);
+        let id = [inv.x, inv.y, inv.z].map(Slab::splat);
         // The far distance is enlarged by 2γ(3): conservative against rounding.
-        let far_scale = Vec4::splat(1.0 + 2.0 * gamma(3));
+        let far_scale = Slab::splat(1.0 + 2.0 * gamma(3));
         let mut t_max = ray.t_max;
         let mut closest = None;
         // Interior nodes still to visit, with their entry distances. Left
@@ -169,26 +171,25 @@ impl Bvh {
             let node = &self.nodes[current as usize];
             let mut mask = 0u32;
             let mut near = [0f32; WIDTH];
-            for q in 0..QUADS {
-                let (lo, hi) = (&node.lo[q], &node.hi[q]);
-                let tx0 = (lo[0] - o[0]) * id[0];
-                let tx1 = (hi[0] - o[0]) * id[0];
-                let ty0 = (lo[1] - o[1]) * id[1];
-                let ty1 = (hi[1] - o[1]) * id[1];
-                let tz0 = (lo[2] - o[2]) * id[2];
-                let tz1 = (hi[2] - o[2]) * id[2];
+            for g in (0..WIDTH).step_by(Slab::WIDTH) {
+                let slab = |bounds: &[[f32; WIDTH]; 3], axis: usize| {
+                    (Slab::load(&bounds[axis][g..]) - o[axis]) * id[axis]
+                };
+                let (tx0, tx1) = (slab(&node.lo, 0), slab(&node.hi, 0));
+                let (ty0, ty1) = (slab(&node.lo, 1), slab(&node.hi, 1));
+                let (tz0, tz1) = (slab(&node.lo, 2), slab(&node.hi, 2));
                 let entry = tx0
                     .min(tx1)
                     .max(ty0.min(ty1))
                     .max(tz0.min(tz1))
-                    .max(Vec4::ZERO);
+                    .max(Slab::splat(0.0));
                 let exit = (tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)) * far_scale)
-                    .min(Vec4::splat(t_max));
+                    .min(Slab::splat(t_max));
                 // An empty slot's entry is +∞, which also "meets" an exit at
                 // +∞ on an unbounded ray: finite entries only.
-                let hit = entry.cmple(exit) & entry.cmplt(Vec4::INFINITY);
-                mask |= hit.bitmask() << (4 * q);
-                near[4 * q..4 * q + 4].copy_from_slice(&entry.to_array());
+                let hit = entry.cmple(exit) & entry.cmplt(Slab::splat(f32::INFINITY));
+                mask |= Slab::bits(hit) << g;
+                near[g..g + Slab::WIDTH].copy_from_slice(&entry.to_array()[..Slab::WIDTH]);
             }
             // Leaves are tested at once, nearest first; hit nodes are sorted
             // nearest first.
@@ -393,8 +394,8 @@ fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
     }
     let me = wide.len();
     wide.push(WideNode {
-        lo: [[Vec4::INFINITY; 3]; QUADS],
-        hi: [[Vec4::INFINITY; 3]; QUADS],
+        lo: [[f32::INFINITY; WIDTH]; 3],
+        hi: [[f32::INFINITY; WIDTH]; 3],
         child: [0; WIDTH],
         count: [0; WIDTH],
     });
@@ -407,8 +408,8 @@ fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
         };
         let node = &mut wide[me];
         for axis in 0..3 {
-            node.lo[k / 4][axis][k % 4] = n.min[axis];
-            node.hi[k / 4][axis][k % 4] = n.max[axis];
+            node.lo[axis][k] = n.min[axis];
+            node.hi[axis][k] = n.max[axis];
         }
         node.child[k] = child;
         node.count[k] = count;
@@ -669,16 +670,14 @@ mod tests {
         assert_eq!(a.len(), b.len());
         for (x, y) in a.iter().zip(&b) {
             assert_eq!((x.child, x.count), (y.child, y.count));
-            for (q, axis) in (0..QUADS).flat_map(|q| (0..3).map(move |a| (q, a))) {
-                assert_eq!(
-                    x.lo[q][axis].to_array().map(f32::to_bits),
-                    y.lo[q][axis].to_array().map(f32::to_bits)
-                );
-                assert_eq!(
-                    x.hi[q][axis].to_array().map(f32::to_bits),
-                    y.hi[q][axis].to_array().map(f32::to_bits)
-                );
-            }
+            assert_eq!(
+                x.lo.map(|a| a.map(f32::to_bits)),
+                y.lo.map(|a| a.map(f32::to_bits))
+            );
+            assert_eq!(
+                x.hi.map(|a| a.map(f32::to_bits)),
+                y.hi.map(|a| a.map(f32::to_bits))
+            );
         }
     }
 

@@ -25,7 +25,9 @@ pub trait Lanes:
     fn cmpgt(self, other: Self) -> Self::Mask;
     fn cmpge(self, other: Self) -> Self::Mask;
     fn abs(self) -> Self;
-    /// `max` as SSE/AVX compute it: the second operand where either is NaN.
+    /// `min` and `max` as SSE/AVX compute them: the second operand where
+    /// either is NaN.
+    fn min(self, other: Self) -> Self;
     fn max(self, other: Self) -> Self;
     /// Bit i set where lane i of the mask is.
     fn bits(mask: Self::Mask) -> u32;
@@ -34,6 +36,8 @@ pub trait Lanes:
     /// The lanes, the first `WIDTH` of eight.
     fn to_array(self) -> [f32; 8];
     fn from_array(lanes: [f32; 8]) -> Self;
+    /// The first `WIDTH` values of `values`.
+    fn load(values: &[f32]) -> Self;
 }
 
 impl Lanes for Vec4 {
@@ -72,6 +76,10 @@ impl Lanes for Vec4 {
         Vec4::abs(self)
     }
     #[inline(always)]
+    fn min(self, other: Self) -> Self {
+        Vec4::min(self, other)
+    }
+    #[inline(always)]
     fn max(self, other: Self) -> Self {
         Vec4::max(self, other)
     }
@@ -102,6 +110,10 @@ impl Lanes for Vec4 {
     #[inline(always)]
     fn from_array(l: [f32; 8]) -> Self {
         Vec4::new(l[0], l[1], l[2], l[3])
+    }
+    #[inline(always)]
+    fn load(values: &[f32]) -> Self {
+        Vec4::from_slice(values)
     }
 }
 
@@ -204,6 +216,10 @@ mod avx {
             }
         }
         #[inline(always)]
+        fn min(self, other: Self) -> Self {
+            unsafe { F32x8(_mm256_min_ps(self.0, other.0)) }
+        }
+        #[inline(always)]
         fn max(self, other: Self) -> Self {
             unsafe { F32x8(_mm256_max_ps(self.0, other.0)) }
         }
@@ -225,6 +241,11 @@ mod avx {
         }
         #[inline(always)]
         fn from_array(lanes: [f32; 8]) -> Self {
+            Self::load(&lanes)
+        }
+        #[inline(always)]
+        fn load(values: &[f32]) -> Self {
+            let lanes = &values[..8];
             unsafe { F32x8(_mm256_loadu_ps(lanes.as_ptr())) }
         }
     }
@@ -289,8 +310,10 @@ mod tests {
             assert_eq!(nan_safe(lanes(x * y)), nan_safe(expect(&|p, q| p * q)));
             assert_eq!(nan_safe(lanes(x / y)), nan_safe(expect(&|p, q| p / q)));
             assert_eq!(nan_safe(lanes(x.abs())), nan_safe(expect(&|p, _| p.abs())));
-            // SSE's max: the second operand unless the first is greater.
+            // SSE's min and max: the second operand unless the first wins.
+            assert_eq!(lanes(x.min(y)), expect(&|p, q| if p < q { p } else { q }));
             assert_eq!(lanes(x.max(y)), expect(&|p, q| if p > q { p } else { q }));
+            assert_eq!(lanes(L::load(&b)), expect(&|_, q| q));
             let mask = (shift as u32 * 37) & ((1 << n) - 1);
             assert_eq!(L::bits(L::mask(mask)), mask);
             assert_eq!(
