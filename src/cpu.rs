@@ -1,54 +1,206 @@
 //! The CPU features the binary was compiled for (`.cargo/config.toml` asks
 //! for x86-64-v3 on x86-64) against those of the CPU it runs on: compiled
 //! code may use any of them anywhere, so a CPU without one would stop at the
-//! first such instruction with SIGILL. `missing_features` lets `main` say so
-//! before any of that code runs.
+//! first such instruction with SIGILL. `refuse_if_missing` lets `main` say
+//! so before any of that code runs.
+//!
+//! The CPU is asked with CPUID itself: `is_x86_feature_detected!` answers
+//! `true` without asking for a feature the build enables.
 
-/// The features this binary was compiled to use that the running CPU lacks.
-pub fn missing_features() -> Vec<&'static str> {
-    #[allow(unused_mut)]
-    let mut missing = Vec::new();
-    #[cfg(target_arch = "x86_64")]
-    {
-        macro_rules! check {
-            ($($feature:tt),*) => {$(
-                if cfg!(target_feature = $feature) && !std::arch::is_x86_feature_detected!($feature) {
-                    missing.push($feature);
-                }
-            )*};
-        }
-        check!(
-            "sse3", "ssse3", "sse4.1", "sse4.2", "popcnt", "avx", "avx2", "fma", "bmi1", "bmi2",
-            "lzcnt", "f16c", "movbe", "avx512f"
-        );
-    }
-    missing
+use std::io::Write;
+
+/// A feature: its name (as `target_feature` spells it), whether this build
+/// uses it, and whether the running CPU (and its OS) has it.
+#[derive(Clone, Copy, Debug)]
+pub struct Feature {
+    pub name: &'static str,
+    pub compiled: bool,
+    pub present: bool,
 }
 
-/// What `main` prints and exits with when the CPU lacks `missing`.
-pub fn refusal(missing: &[&str]) -> Option<String> {
-    if missing.is_empty() {
-        return None;
+/// The features of x86-64-v2/v3 (and AVX-512F) this build may use.
+#[cfg(target_arch = "x86_64")]
+pub fn features() -> [Feature; 14] {
+    #[allow(unused_imports)]
+    use std::arch::x86_64::{__cpuid, __cpuid_count, _xgetbv};
+    // SAFETY: every x86-64 CPU has CPUID; the leaves asked are below the
+    // maxima it reports, and XGETBV is run only where OSXSAVE says the OS
+    // enabled it.
+    #[allow(unused_unsafe)]
+    let (l1, l7, ext, xcr0) = unsafe {
+        let max = __cpuid(0).eax;
+        let l1 = __cpuid(1);
+        let l7 = if max >= 7 {
+            Some(__cpuid_count(7, 0))
+        } else {
+            None
+        };
+        let ext = if __cpuid(0x8000_0000).eax >= 0x8000_0001 {
+            Some(__cpuid(0x8000_0001))
+        } else {
+            None
+        };
+        let osxsave = l1.ecx & (1 << 27) != 0;
+        let xcr0 = if osxsave { xgetbv0() } else { 0 };
+        (l1, l7, ext, xcr0)
+    };
+    let bit = |reg: u32, b: u32| reg & (1 << b) != 0;
+    // The OS saves the SSE and AVX registers (XCR0 bits 1, 2), and those of
+    // AVX-512 (bits 5–7), across context switches.
+    let os_avx = xcr0 & 0b110 == 0b110;
+    let os_avx512 = os_avx && xcr0 & 0b1110_0000 == 0b1110_0000;
+    let (b7, c_ext) = (l7.map_or(0, |r| r.ebx), ext.map_or(0, |r| r.ecx));
+    let f = |name, compiled, present| Feature {
+        name,
+        compiled,
+        present,
+    };
+    [
+        f("sse3", cfg!(target_feature = "sse3"), bit(l1.ecx, 0)),
+        f("ssse3", cfg!(target_feature = "ssse3"), bit(l1.ecx, 9)),
+        f("sse4.1", cfg!(target_feature = "sse4.1"), bit(l1.ecx, 19)),
+        f("sse4.2", cfg!(target_feature = "sse4.2"), bit(l1.ecx, 20)),
+        f("popcnt", cfg!(target_feature = "popcnt"), bit(l1.ecx, 23)),
+        f("movbe", cfg!(target_feature = "movbe"), bit(l1.ecx, 22)),
+        f("lzcnt", cfg!(target_feature = "lzcnt"), bit(c_ext, 5)),
+        f("bmi1", cfg!(target_feature = "bmi1"), bit(b7, 3)),
+        f("bmi2", cfg!(target_feature = "bmi2"), bit(b7, 8)),
+        f(
+            "avx",
+            cfg!(target_feature = "avx"),
+            bit(l1.ecx, 28) && os_avx,
+        ),
+        f(
+            "f16c",
+            cfg!(target_feature = "f16c"),
+            bit(l1.ecx, 29) && os_avx,
+        ),
+        f(
+            "fma",
+            cfg!(target_feature = "fma"),
+            bit(l1.ecx, 12) && os_avx,
+        ),
+        f("avx2", cfg!(target_feature = "avx2"), bit(b7, 5) && os_avx),
+        f(
+            "avx512f",
+            cfg!(target_feature = "avx512f"),
+            bit(b7, 16) && os_avx512,
+        ),
+    ]
+}
+
+/// XCR0, the register of the state components the OS saves.
+#[cfg(target_arch = "x86_64")]
+#[cfg(target_feature = "xsave")]
+unsafe fn xgetbv0() -> u64 {
+    // SAFETY: the caller checked OSXSAVE.
+    unsafe { std::arch::x86_64::_xgetbv(0) }
+}
+
+/// XCR0 read by hand where the build does not enable XSAVE.
+#[cfg(target_arch = "x86_64")]
+#[cfg(not(target_feature = "xsave"))]
+unsafe fn xgetbv0() -> u64 {
+    let (eax, edx): (u32, u32);
+    // SAFETY: the caller checked OSXSAVE; XGETBV only reads XCR0.
+    unsafe {
+        std::arch::asm!("xgetbv", in("ecx") 0, out("eax") eax, out("edx") edx,
+            options(nomem, nostack, preserves_flags));
     }
-    Some(format!(
-        "this CPU lacks {}, which this build of prism uses (x86-64-v3, set in \
-         .cargo/config.toml); build it for this CPU with \
-         RUSTFLAGS=\"-C target-cpu=native\" cargo build --release",
-        missing.join(", ")
-    ))
+    (edx as u64) << 32 | eax as u64
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+pub fn features() -> [Feature; 0] {
+    []
+}
+
+/// Writes why the binary cannot run here, if it cannot: plain writes of
+/// static text (no formatting), as little compiled code as can be.
+pub fn write_refusal(features: &[Feature], out: &mut impl Write) -> bool {
+    let mut missing = features.iter().filter(|f| f.compiled && !f.present);
+    let Some(first) = missing.next() else {
+        return false;
+    };
+    let _ = out.write_all(b"error: this CPU lacks ");
+    let _ = out.write_all(first.name.as_bytes());
+    for f in missing {
+        let _ = out.write_all(b", ");
+        let _ = out.write_all(f.name.as_bytes());
+    }
+    let _ = out.write_all(
+        b", which this build of prism uses (x86-64-v3, set in .cargo/config.toml); \
+          build it for this CPU with RUSTFLAGS=\"-C target-cpu=native\" cargo build --release\n",
+    );
+    true
+}
+
+/// Exits with status 1 and the message of `write_refusal` where the CPU
+/// lacks a feature the build uses. Call it first in `main`.
+#[inline(never)]
+pub fn refuse_if_missing() {
+    if write_refusal(&features(), &mut std::io::stderr()) {
+        std::process::exit(1);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn feature(name: &'static str, compiled: bool, present: bool) -> Feature {
+        Feature {
+            name,
+            compiled,
+            present,
+        }
+    }
+
     #[test]
     fn a_cpu_without_a_compiled_feature_is_refused_with_the_way_to_rebuild() {
-        assert_eq!(refusal(&[]), None);
-        let message = refusal(&["avx2", "fma"]).unwrap();
-        assert!(message.contains("lacks avx2, fma"), "{message}");
+        let mut out = Vec::new();
+        let ok = [
+            feature("avx2", true, true),
+            feature("avx512f", false, false),
+        ];
+        assert!(!write_refusal(&ok, &mut out));
+        assert!(out.is_empty());
+        let old = [
+            feature("sse4.2", true, true),
+            feature("avx2", true, false),
+            feature("fma", true, false),
+            feature("avx512f", false, false),
+        ];
+        assert!(write_refusal(&old, &mut out));
+        let message = String::from_utf8(out).unwrap();
+        assert!(
+            message.starts_with("error: this CPU lacks avx2, fma, which"),
+            "{message}"
+        );
         assert!(message.contains("target-cpu=native"), "{message}");
-        // The machine running the tests runs them, so it has every feature.
-        assert_eq!(missing_features(), Vec::<&str>::new());
+    }
+
+    /// CPUID agrees with std's detection for every feature the build does
+    /// not enable (std answers `true` without asking for the others), and
+    /// the machine running the tests has every feature the build enables.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn cpuid_agrees_with_std_and_this_machine_has_the_build_features() {
+        macro_rules! detected {
+            ($name:expr, $($feature:tt),*) => {
+                match $name { $($feature => std::arch::is_x86_feature_detected!($feature),)* _ => unreachable!() }
+            };
+        }
+        for f in features() {
+            let std_says = detected!(
+                f.name, "sse3", "ssse3", "sse4.1", "sse4.2", "popcnt", "movbe", "lzcnt", "bmi1",
+                "bmi2", "avx", "f16c", "fma", "avx2", "avx512f"
+            );
+            if !f.compiled {
+                assert_eq!(f.present, std_says, "{}", f.name);
+            } else {
+                assert!(f.present, "{} is compiled in but CPUID lacks it", f.name);
+            }
+        }
     }
 }

@@ -267,10 +267,7 @@ fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
 
 fn main() -> ExitCode {
     // First, before code that may use instructions this CPU lacks.
-    if let Some(message) = prism::cpu::refusal(&prism::cpu::missing_features()) {
-        eprintln!("error: {message}");
-        return ExitCode::from(1);
-    }
+    prism::cpu::refuse_if_missing();
     let cli = Cli::parse();
     match run(cli) {
         Ok(code) => code,
