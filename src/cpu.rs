@@ -21,8 +21,7 @@ pub struct Feature {
 /// The features of x86-64-v2/v3 (and AVX-512F) this build may use.
 #[cfg(target_arch = "x86_64")]
 pub fn features() -> [Feature; 14] {
-    #[allow(unused_imports)]
-    use std::arch::x86_64::{__cpuid, __cpuid_count, _xgetbv};
+    use std::arch::x86_64::{__cpuid, __cpuid_count};
     // SAFETY: every x86-64 CPU has CPUID; the leaves asked are below the
     // maxima it reports, and XGETBV is run only where OSXSAVE says the OS
     // enabled it.

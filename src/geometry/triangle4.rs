@@ -265,12 +265,16 @@ mod tests {
                     },
                 );
             let lanes = (1u32 << n) - 1;
-            let (got, prim) = if n <= 4 {
-                let packet = Triangle4::new(&tris, 100);
-                let got = intersect(&RayShear4::new(&shear), &packet, lanes, ray.t_max);
-                (got, got.map(|(lane, _)| packet.prim(lane)))
-            } else {
-                pair(&shear, &tris, lanes, ray.t_max)
+            let (got, prim) = match n {
+                ..=4 => {
+                    let packet = Triangle4::new(&tris, 100);
+                    let got = intersect(&RayShear4::new(&shear), &packet, lanes, ray.t_max);
+                    (got, got.map(|(lane, _)| packet.prim(lane)))
+                }
+                #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+                _ => pair(&shear, &tris, lanes, ray.t_max),
+                #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+                _ => unreachable!("at most four triangles a case without AVX2"),
             };
             match (scalar, got) {
                 (None, None) => {}
@@ -301,16 +305,6 @@ mod tests {
         );
         let got = intersect_pair(&RayShear8::new(shear), &p, &q, lanes, t_max);
         (got, got.map(|(lane, _)| [p, q][lane / 4].prim(lane % 4)))
-    }
-
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-    fn pair(
-        _: &RayShear,
-        _: &[[Vec3; 3]],
-        _: u32,
-        _: f32,
-    ) -> (Option<(usize, TriangleHit)>, Option<u32>) {
-        unreachable!("at most four triangles a case without AVX2")
     }
 
     #[test]
