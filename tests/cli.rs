@@ -509,3 +509,50 @@ fn an_older_cpu_is_told_what_it_lacks_instead_of_crashing() {
         String::from_utf8_lossy(&modern.stderr)
     );
 }
+
+#[test]
+fn the_profile_guided_build_trains_on_renders_that_run() {
+    // tools/pgo-build.sh renders every line of tools/pgo-training.txt with
+    // its instrumented binary: a scene renamed or an option changed would
+    // stop that build minutes in. Each line here, at 16x16 and 1 spp.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let list = std::fs::read_to_string(root.join("tools/pgo-training.txt")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut renders = 0;
+    for line in list.lines().map(str::trim) {
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let mut words = line.split_whitespace();
+        let scene = root.join(format!("scenes/{}.toml", words.next().unwrap()));
+        assert!(scene.is_file(), "{line}: no {}", scene.display());
+        let output = dir.path().join(renders.to_string());
+        let mut args = vec![
+            "render".to_string(),
+            scene.display().to_string(),
+            "-o".to_string(),
+            output.display().to_string(),
+        ];
+        while let Some(word) = words.next() {
+            let small = match word {
+                "--resolution" => "16x16",
+                "--spp" => "1",
+                _ => {
+                    args.push(word.to_string());
+                    continue;
+                }
+            };
+            assert!(words.next().is_some(), "{line}: {word} without a value");
+            args.extend([word.to_string(), small.to_string()]);
+        }
+        for (option, small) in [("--resolution", "16x16"), ("--spp", "1")] {
+            if !args.iter().any(|a| a == option) {
+                args.extend([option.to_string(), small.to_string()]);
+            }
+        }
+        succeed(prism().args(&args));
+        assert!(output.with_extension("exr").is_file(), "{line}: no image");
+        renders += 1;
+    }
+    assert!(renders >= 10, "only {renders} training renders");
+}
