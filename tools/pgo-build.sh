@@ -14,8 +14,9 @@
 # llvm-profdata of the compiler's own LLVM version, which rustup's
 # `llvm-tools` component has (added here if it is missing).
 #
-# RUSTFLAGS, if set, replaces the target CPU of .cargo/config.toml here as
-# in any cargo build; the profile flags are added to it.
+# The profile flags are added to the build's own flags: the target CPU of
+# .cargo/config.toml, or RUSTFLAGS where it is set (which, as in any cargo
+# build, replaces the config's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -27,13 +28,17 @@ if [ ! -x "$bin_dir/llvm-profdata" ]; then
 fi
 profdata="$bin_dir/llvm-profdata"
 
-# RUSTFLAGS replaces the config's flags: keep its target CPU unless the
-# caller chose one.
-if [ -z "${RUSTFLAGS:-}" ] && [ "$(uname -m)" = x86_64 ]; then
-    base="-C target-cpu=x86-64-v3"
-else
-    base="${RUSTFLAGS:-}"
-fi
+# cargo joins every matching [target] entry's rustflags, so a cfg(all())
+# entry given on the command line adds to the config's target CPU; RUSTFLAGS
+# replaces all of them, so there the flags go into it.
+build() { # target dir, profile flag
+    if [ -n "${RUSTFLAGS:-}" ]; then
+        RUSTFLAGS="$RUSTFLAGS $2" cargo build --release --quiet --target-dir "$1"
+    else
+        cargo build --release --quiet --target-dir "$1" \
+            --config "target.'cfg(all())'.rustflags = [\"$2\"]"
+    fi
+}
 
 root=$PWD/target/pgo
 profiles=$root/profiles
@@ -41,8 +46,7 @@ rm -rf "$profiles"
 mkdir -p "$profiles"
 
 echo "pgo-build: 1/3 instrumented build" >&2
-RUSTFLAGS="$base -C profile-generate=$profiles" \
-    cargo build --release --quiet --target-dir "$root/instrumented"
+build "$root/instrumented" "-Cprofile-generate=$profiles"
 
 echo "pgo-build: 2/3 training renders" >&2
 trainer=$root/instrumented/release/prism
@@ -60,6 +64,5 @@ done <tools/pgo-training.txt
 "$profdata" merge -o "$root/prism.profdata" "$profiles"
 
 echo "pgo-build: 3/3 optimised build" >&2
-RUSTFLAGS="$base -C profile-use=$root/prism.profdata" \
-    cargo build --release --quiet --target-dir "$root"
+build "$root" "-Cprofile-use=$root/prism.profdata"
 echo "pgo-build: wrote $root/release/prism" >&2
