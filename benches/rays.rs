@@ -9,18 +9,19 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use glam::Vec3;
 use prism::camera::Camera;
-use prism::film::{FilmSettings, SpectralLayout};
 use prism::geometry::Ray;
-use prism::integrator::{Integrator, PathCounters, PathTracer};
+use prism::integrator::{PathCounters, PathTracer};
+use prism::load::load;
 use prism::material::Material;
 use prism::sampler::Sampler;
-use prism::scene::{load, Mesh, Scene, ShapeInstance};
+use prism::scene::{Mesh, Scene, ShapeInstance};
 use prism::spectrum::SampledWavelengths;
 use prism::spectrum::Spectrum;
 
 fn cornell() -> Scene {
     load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml"))
         .expect("the Cornell Box loads")
+        .scene
 }
 
 /// `n` camera rays on a square grid over the whole image, row by row.
@@ -76,28 +77,12 @@ fn terrain_mesh(n: u32) -> Mesh {
 
 fn terrain(mesh: Mesh) -> Scene {
     let (w, h) = (512, 512);
-    let film = FilmSettings {
-        spp: 1,
-        layout: SpectralLayout {
-            min: 380.0,
-            max: 780.0,
-            count: 1,
-        },
-        spectral_output: false,
-        ..FilmSettings::new(w, h)
-    };
-    let integrator = Integrator::Path(PathTracer {
-        max_depth: 4,
-        ..PathTracer::default()
-    });
     let camera = Camera::look_at(Vec3::new(0.0, 1.2, -1.8), Vec3::ZERO, Vec3::Y, 50.0, w, h);
     let material = Material::Diffuse {
         reflectance: Spectrum::Constant(0.5).into(),
     };
     Scene::build(
         camera,
-        film,
-        integrator,
         vec![material],
         vec![ShapeInstance {
             mesh,
@@ -214,8 +199,9 @@ fn bench(c: &mut Criterion) {
         });
     }
     group.throughput(Throughput::Elements(4096));
-    let Integrator::Path(path) = scene.integrator.clone() else {
-        unreachable!("the terrain scene is path traced")
+    let path = PathTracer {
+        max_depth: 4,
+        ..PathTracer::default()
     };
     group.bench_function("paths (MIS, 4096 camera samples)", |b| {
         b.iter_batched(

@@ -11,12 +11,12 @@ use anyhow::{bail, Context, Result};
 use glam::Vec3;
 
 use crate::film::output::{read_rgb_exr, write_rgb_exr};
-use crate::render::{render, RenderOptions};
+use crate::integrator::{Integrator, IntegratorKind, IntegratorSpec};
+use crate::load::Loaded;
+use crate::render::{render, RenderOptions, RenderSettings};
 use crate::scene::Scene;
 
-/// ε of the relative MSE, (x − r)² / (r² + ε): keeps black pixels from
-/// dominating (Rousselle et al. 2011 use 0.01 as well).
-pub const REL_MSE_EPSILON: f64 = 1e-2;
+pub use crate::film::convergence::REL_MSE_EPSILON;
 
 /// Relative mean squared error of `image` against `reference` (linear RGB),
 /// averaged over pixels and channels.
@@ -67,8 +67,9 @@ pub struct BenchOptions {
     pub reference: Option<PathBuf>,
     pub threads: Option<usize>,
     pub out_dir: PathBuf,
-    /// Render with this integrator instead of the scene file's.
-    pub integrator: Option<crate::integrator::IntegratorKind>,
+    /// Run the ladder with each of these integrators instead of the scene
+    /// file's, from one loaded scene (the reference with the first).
+    pub integrators: Vec<IntegratorKind>,
     /// The path tracer's splitting instead of the scene file's.
     pub split: Option<u32>,
     /// Adaptive sampling in the rungs (`RenderOptions::adaptive`).
@@ -77,24 +78,22 @@ pub struct BenchOptions {
 
 /// The reference image: the given one, a cached render of this scene file
 /// at this many samples, or a new render (cached for next time).
-pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec3>)> {
+pub fn reference(loaded: &Loaded, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec3>)> {
+    let (scene, settings) = (&loaded.scene, &loaded.settings);
+    let (width, height) = (settings.film.width, settings.film.height);
     let path = opts.reference.clone().unwrap_or_else(|| {
         opts.out_dir.join(format!(
-            "reference-{}-{}x{}-{}spp.exr",
-            scene.content_hash(),
-            scene.film.width,
-            scene.film.height,
+            "reference-{}-{width}x{height}-{}spp.exr",
+            loaded.report.content_hash(),
             opts.reference_spp
         ))
     });
     if path.exists() {
         let (w, h, px) = read_rgb_exr(&path)?;
-        if (w, h) != (scene.film.width, scene.film.height) {
+        if (w, h) != (width, height) {
             bail!(
-                "the reference {} is {w}x{h}, the scene renders {}x{}",
+                "the reference {} is {w}x{h}, the scene renders {width}x{height}",
                 path.display(),
-                scene.film.width,
-                scene.film.height
             );
         }
         eprintln!("reference: {} (cached)", path.display());
@@ -107,12 +106,13 @@ pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec
     );
     let (film, _) = render(
         scene,
+        settings,
         &RenderOptions {
             // A seed no rung uses: the reference's noise is independent.
             seed: 0x5eed_0000_0000,
             threads: opts.threads,
             progress: true,
-            ..RenderOptions::with_spp(scene, opts.reference_spp)
+            ..RenderOptions::with_spp(&settings.film, opts.reference_spp)
         },
     )?;
     let rgb = film.linear_srgb();
@@ -120,18 +120,24 @@ pub fn reference(scene: &Scene, opts: &BenchOptions) -> Result<(PathBuf, Vec<Vec
     Ok((path, rgb))
 }
 
-/// Renders every rung and measures it.
-pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Result<Vec<Rung>> {
+/// Renders every rung with `settings` and measures it.
+pub fn run_ladder(
+    scene: &Scene,
+    settings: &RenderSettings,
+    reference: &[Vec3],
+    opts: &BenchOptions,
+) -> Result<Vec<Rung>> {
     let mut rungs = Vec::new();
     for (i, &spp) in opts.ladder.iter().enumerate() {
         let (cpu0, wall0) = (process_cpu_time(), Instant::now());
         let (film, stats) = render(
             scene,
+            settings,
             &RenderOptions {
                 seed: i as u64 + 1,
                 threads: opts.threads,
                 adaptive: opts.adaptive,
-                ..RenderOptions::with_spp(scene, spp)
+                ..RenderOptions::with_spp(&settings.film, spp)
             },
         )?;
         let (wall, cpu) = (wall0.elapsed(), process_cpu_time() - cpu0);
@@ -144,7 +150,7 @@ pub fn run_ladder(scene: &Scene, reference: &[Vec3], opts: &BenchOptions) -> Res
         let rgb = film.linear_srgb();
         let image = opts
             .out_dir
-            .join(format!("prism-{}-{spp}spp.exr", scene.integrator.name()));
+            .join(format!("prism-{}-{spp}spp.exr", settings.integrator.name()));
         write_rgb_exr(&rgb, film.width, film.height, &image)?;
         let e = rel_mse(&rgb, reference);
         eprintln!(
@@ -187,8 +193,9 @@ pub fn write_csv(
     std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// `prism bench`: loads the scene (at `resolution` if given), renders or
-/// reads the reference, runs the ladder and writes OUT/prism.csv.
+/// `prism bench`: loads the scene once (at `resolution` if given), renders
+/// or reads the reference, and runs the ladder with the scene file's
+/// integrator (OUT/prism.csv) or with each one asked for (OUT/prism-NAME.csv).
 pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOptions) -> Result<()> {
     if opts.ladder.is_empty() || opts.ladder.contains(&0) || opts.reference_spp == 0 {
         bail!("sample counts must be at least 1");
@@ -197,18 +204,18 @@ pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOption
         bail!("--threads must be at least 1");
     }
     let load_start = Instant::now();
-    let overrides = crate::scene::Overrides {
+    let overrides = crate::load::Overrides {
         resolution,
-        integrator: opts.integrator,
+        integrator: opts.integrators.first().copied(),
         split: opts.split,
         // The rungs are measured as RGB, as Mitsuba's are: no spectral
         // buckets to sum.
         no_spectral: true,
         ..Default::default()
     };
-    let scene = crate::scene::load_with(scene_path, &overrides)?;
+    let loaded = crate::load::load_with(scene_path, &overrides)?;
     let load = load_start.elapsed();
-    for w in &scene.warnings {
+    for w in &loaded.report.warnings {
         eprintln!("warning: {w}");
     }
     std::fs::create_dir_all(&opts.out_dir)
@@ -217,20 +224,46 @@ pub fn run(scene_path: &Path, resolution: Option<(u32, u32)>, opts: &BenchOption
         "loaded {} in {:.3} s ({} triangles)",
         scene_path.display(),
         load.as_secs_f64(),
-        scene.triangle_count()
+        loaded.scene.triangle_count()
     );
-    let (_, reference) = reference(&scene, opts)?;
-    let rungs = run_ladder(&scene, &reference, opts)?;
-    // The scene's own integrator writes prism.csv (what tools/bench.py
-    // reads); another one chosen by --integrator, prism-NAME.csv.
-    let name = scene.integrator.name();
-    let csv = match opts.integrator {
-        Some(_) => opts.out_dir.join(format!("prism-{name}.csv")),
-        None => opts.out_dir.join("prism.csv"),
-    };
-    write_csv(&csv, &scene_path.display().to_string(), name, load, &rungs)?;
-    eprintln!("wrote {}", csv.display());
+    let (_, reference) = reference(&loaded, opts)?;
+    let mut settings = vec![loaded.settings.clone()];
+    for &kind in opts.integrators.iter().skip(1) {
+        settings.push(RenderSettings {
+            integrator: other_integrator(&loaded.settings.integrator, kind, opts.split)?,
+            ..loaded.settings.clone()
+        });
+    }
+    for settings in &settings {
+        let rungs = run_ladder(&loaded.scene, settings, &reference, opts)?;
+        // The scene's own integrator writes prism.csv (what tools/bench.py
+        // reads); one chosen by --integrator, prism-NAME.csv.
+        let name = settings.integrator.name();
+        let csv = match opts.integrators.is_empty() {
+            true => opts.out_dir.join("prism.csv"),
+            false => opts.out_dir.join(format!("prism-{name}.csv")),
+        };
+        write_csv(&csv, &scene_path.display().to_string(), name, load, &rungs)?;
+        eprintln!("wrote {}", csv.display());
+    }
     Ok(())
+}
+
+/// An integrator of `kind` for the scene `loaded` was loaded with: its
+/// defaults, with the loaded one's bounce limit (and `split` for the path
+/// tracer).
+fn other_integrator(
+    loaded: &Integrator,
+    kind: IntegratorKind,
+    split: Option<u32>,
+) -> Result<Integrator> {
+    let spec = IntegratorSpec {
+        kind,
+        max_depth: Some(loaded.max_depth()),
+        split: split.filter(|_| kind == IntegratorKind::Path),
+        ..Default::default()
+    };
+    Integrator::from_spec(&spec).map_err(|e| anyhow::anyhow!("--integrator {}: {e}", kind.name()))
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand};
 use prism::film::{Gamut, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
 use prism::job::{describe, merge_files, render_files, Interrupts, MergeJob, Reaction, RenderJob};
-use prism::scene::Overrides;
+use prism::load::Overrides;
 
 /// prism: a spectral, physically based path tracer.
 #[derive(Parser)]
@@ -168,9 +168,11 @@ enum Command {
         /// Where the CSV, the rungs' images and the cached reference go.
         #[arg(short, long, value_name = "DIR", default_value = "bench")]
         out: PathBuf,
-        /// Integrator (overrides integrator.type); its CSV is OUT/prism-NAME.csv.
-        #[arg(long, value_enum)]
-        integrator: Option<IntegratorKind>,
+        /// Integrators, comma-separated (override integrator.type): each
+        /// runs the ladder on the one loaded scene (the first renders the
+        /// reference), its CSV OUT/prism-NAME.csv.
+        #[arg(long, value_enum, value_delimiter = ',')]
+        integrator: Vec<IntegratorKind>,
         /// Continuations per camera sample from its first surface, for the
         /// path tracer (overrides integrator.split; the reference is rendered
         /// with it too).
@@ -404,7 +406,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 reference,
                 threads,
                 out_dir: out,
-                integrator,
+                integrators: integrator,
                 split,
                 adaptive,
             };

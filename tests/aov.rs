@@ -107,8 +107,7 @@ fn aovs_describe_the_first_hit_and_leave_the_image_alone() {
 
 #[test]
 fn unknown_aovs_are_errors() {
-    let e = match prism::scene::load_str(&SCENE.replace("\"depth\"", "\"motion\""), Path::new("."))
-    {
+    let e = match prism::load::load_str(&SCENE.replace("\"depth\"", "\"motion\""), Path::new(".")) {
         Ok(_) => panic!("accepted"),
         Err(e) => e.to_string(),
     };

@@ -134,8 +134,8 @@ fn bdpt_white_furnace() {
 #[test]
 fn bdpt_and_light_tracing_match_a_mirror_caustic() {
     let probe = caustic::scene("bdpt", "", false, 2);
-    let pixels = caustic::expected_pixels(&probe, false, false, 0.0);
-    let (w, h) = (probe.film.width, probe.film.height);
+    let pixels = caustic::expected_pixels(&probe.scene, false, false, 0.0);
+    let (w, h) = (probe.settings.film.width, probe.settings.film.height);
     let mut expected = Vec::new();
     for y0 in (0..h).step_by(8) {
         for x0 in (0..w).step_by(8) {

@@ -36,7 +36,7 @@ fn spot(film: &Film) -> ((f64, f64), f64, f64) {
 
 /// A small square emitter of half-size `a` facing a lens camera on its
 /// axis at distance `d`: fov 20°, 64², lens radius `radius` focused at `focus`.
-fn lens_scene(d: f32, a: f32, radius: f32, focus: f32, kind: &str) -> prism::scene::Scene {
+fn lens_scene(d: f32, a: f32, radius: f32, focus: f32, kind: &str) -> prism::load::Loaded {
     common::scene(&format!(
         "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, 1]\nfov = 20\n\
          aperture_radius = {radius}\nfocus_distance = {focus}\n\
@@ -129,7 +129,7 @@ fn an_orthographic_view_keeps_sizes_at_every_distance() {
 
 #[test]
 fn bad_cameras_are_clear_errors() {
-    let error = |camera: &str, rest: &str| match prism::scene::load_str(
+    let error = |camera: &str, rest: &str| match prism::load::load_str(
         &format!("[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n{camera}\n{rest}"),
         Path::new(env!("CARGO_MANIFEST_DIR")),
     ) {

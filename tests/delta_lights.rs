@@ -9,7 +9,7 @@ mod common;
 use std::path::Path;
 
 use glam::{DVec3, Vec3};
-use prism::scene::Scene;
+use prism::load::Loaded;
 use prism::spectrum::SampledWavelengths;
 
 const FLOOR: &str = "[camera]\nposition = [0, 5, -5]\nlook_at = [0, 0, 0]\n\
@@ -29,7 +29,7 @@ fn assert_close(got: (f64, f64), expected: f64, what: &str) {
     );
 }
 
-fn scene(lights: &str) -> Scene {
+fn scene(lights: &str) -> Loaded {
     common::scene(&format!("{FLOOR}{lights}"))
 }
 
@@ -109,7 +109,8 @@ fn power_is_intensity_over_the_solid_angle() {
     let wl = SampledWavelengths::sample_visible(0.4);
     let li = |lights: &str| {
         let s = scene(lights);
-        s.lights
+        s.scene
+            .lights
             .get(0)
             .sample_li(Vec3::ZERO, (0.5, 0.5), &wl)
             .unwrap()
@@ -125,7 +126,7 @@ fn power_is_intensity_over_the_solid_angle() {
 
 #[test]
 fn bad_lights_are_clear_errors() {
-    let error = |lights: &str| match prism::scene::load_str(
+    let error = |lights: &str| match prism::load::load_str(
         &format!("{FLOOR}{lights}"),
         Path::new(env!("CARGO_MANIFEST_DIR")),
     ) {

@@ -58,7 +58,7 @@ fn floor_scene(strategy: &str, light: &str) -> String {
     )
 }
 
-fn scene(strategy: &str) -> prism::scene::Scene {
+fn scene(strategy: &str) -> prism::load::Loaded {
     common::scene(&floor_scene(
         strategy,
         &format!(
@@ -113,7 +113,7 @@ fn floor_radiance_matches_lambert_formula() {
 
 /// Mean luminance the path tracer sees at floor point `target` (looked at
 /// from below the light's plane) and its standard error.
-fn floor_point(s: &prism::scene::Scene, target: DVec3, n: u64, seed: u64) -> (f64, f64) {
+fn floor_point(s: &prism::load::Loaded, target: DVec3, n: u64, seed: u64) -> (f64, f64) {
     let origin = DVec3::new(6.0, 0.5, -3.0);
     let dir = (target - origin).normalize().as_vec3();
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
@@ -170,7 +170,7 @@ fn cut_out_lights_emit_only_where_they_are_present() {
         let path = dir.path().join(format!("{name}-{strategy}.toml"));
         let light = format!("[[shape]]\ntype = \"obj\"\nfile = \"{name}.obj\"");
         std::fs::write(&path, floor_scene(strategy, &light)).unwrap();
-        prism::scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+        prism::load::load(&path).unwrap_or_else(|e| panic!("{e}"))
     };
     let target = DVec3::new(0.3, 0.0, 0.1);
     let n = |strategy: &str| if strategy == "bsdf" { 400_000 } else { 40_000 };

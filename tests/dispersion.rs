@@ -8,7 +8,7 @@ use glam::{Vec3, Vec4};
 use prism::geometry::offset::offset_ray_origin;
 use prism::geometry::Ray;
 use prism::material::{Ior, ShadingGeometry, TransportMode};
-use prism::render::{render, RenderOptions};
+use prism::render::render;
 use prism::spectrum::SampledWavelengths;
 
 /// Traces one ray at wavelength `lambda` through the prism scene's
@@ -68,7 +68,7 @@ fn prism_deviation_matches_snell_and_sellmeier() {
     let origin = on_face - 2.0 * dir;
     let mut deviations = Vec::new();
     for lambda in [450.0f32, 550.0, 650.0] {
-        let out = trace(&scene, origin, dir, lambda);
+        let out = trace(&scene.scene, origin, dir, lambda);
         let traced = (dir.dot(out) as f64).clamp(-1.0, 1.0).acos();
         let n = sf11.eval(lambda) as f64;
         let theta2 = (theta1.sin() / n).asin();
@@ -128,7 +128,7 @@ fn rendered_spectrum_runs_red_to_violet() {
         two_sided = true
         "#,
     );
-    let (film, _) = render(&s, &RenderOptions::new(&s)).unwrap();
+    let (film, _) = render(&s.scene, &s.settings, &s.settings.options()).unwrap();
     // Mean wavelength seen by each row that sees the slit.
     let mut centroids = Vec::new();
     for y in 0..96 {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};
 use prism::film::output::write_rgb_exr;
-use prism::scene::Scene;
+use prism::load::Loaded;
 
 const W: u32 = 64;
 const H: u32 = 32;
@@ -41,7 +41,7 @@ fn smooth_map(dir: &Path) -> PathBuf {
     path
 }
 
-fn floor_scene(environment: &str) -> Scene {
+fn floor_scene(environment: &str) -> Loaded {
     common::scene(&format!(
         "[camera]\nposition = [0, 5, -5]\nlook_at = [0, 0, 0]\n\
          [integrator]\nmax_depth = 1\n\
@@ -187,7 +187,7 @@ fn bidirectional_path_tracing_sees_the_map_as_the_path_tracer_does() {
 #[test]
 fn bad_maps_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let error = |environment: String| match prism::scene::load_str(
+    let error = |environment: String| match prism::load::load_str(
         &format!(
             "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[environment]\n{environment}"
         ),

@@ -147,8 +147,11 @@ fn constant_environment_furnace() {
         [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
             .iter()
             .all(|(dx, dy)| {
-                let r = probe.camera.generate_ray(x as f32 + dx, y as f32 + dy);
-                probe.intersect(&r).is_some() == hit
+                let r = probe
+                    .scene
+                    .camera
+                    .generate_ray(x as f32 + dx, y as f32 + dy);
+                probe.scene.intersect(&r).is_some() == hit
             })
     };
     let sphere: Vec<(u32, u32)> = (0..24)
@@ -192,9 +195,9 @@ fn constant_environment_furnace() {
             let options = RenderOptions {
                 seed,
                 threads: Some(2),
-                ..RenderOptions::new(&s)
+                ..s.settings.options()
             };
-            let (film, _) = render(&s, &options).unwrap();
+            let (film, _) = render(&s.scene, &s.settings, &options).unwrap();
             mean_of(&film, &sphere).0
         })
         .collect();

@@ -170,16 +170,16 @@ proptest! {
     #[test]
     fn mangled_scenes_load_or_fail_cleanly(text in mangled_scene()) {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        match prism::scene::load_str(&text, dir) {
+        match prism::load::load_str(&text, dir) {
             Ok(s) => {
                 // What loads also renders (one sample a pixel, on films
                 // small enough for a test) without a non-finite sample.
-                if s.film.width as u64 * s.film.height as u64 <= 1 << 16 {
+                if s.settings.film.width as u64 * s.settings.film.height as u64 <= 1 << 16 {
                     let options = prism::render::RenderOptions {
                         threads: Some(1),
-                        ..prism::render::RenderOptions::with_spp(&s, 1)
+                        ..prism::render::RenderOptions::with_spp(&s.settings.film, 1)
                     };
-                    let (film, stats) = prism::render::render(&s, &options).unwrap();
+                    let (film, stats) = prism::render::render(&s.scene, &s.settings, &options).unwrap();
                     prop_assert_eq!(stats.non_finite, 0);
                     prop_assert!(film.linear_srgb().iter().all(|c| c.is_finite()));
                 }
@@ -197,10 +197,10 @@ proptest! {
         std::fs::write(dir.path().join("m.obj"), lines.join("\n")).unwrap();
         let scene = "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\nspp = 1\n\
                      [[shape]]\ntype = \"obj\"\nfile = \"m.obj\"\nemission = 1\n";
-        match prism::scene::load_str(scene, dir.path()) {
+        match prism::load::load_str(scene, dir.path()) {
             Ok(s) => {
                 // What loads also renders without a non-finite sample.
-                let (_, stats) = prism::render::render(&s, &prism::render::RenderOptions { threads: Some(1), ..prism::render::RenderOptions::new(&s) }).unwrap();
+                let (_, stats) = prism::render::render(&s.scene, &s.settings, &prism::render::RenderOptions { threads: Some(1), ..s.settings.options() }).unwrap();
                 prop_assert_eq!(stats.non_finite, 0);
             }
             Err(e) => prop_assert!(e.message.contains("m.obj"), "{}", e.message),
@@ -261,13 +261,13 @@ fn glb_loads_or_fails_cleanly(glb: &[u8], camera: &str) -> Result<(), TestCaseEr
     let scene = format!(
         "{camera}[film]\nresolution = [4, 4]\nspp = 1\n[[shape]]\ntype = \"gltf\"\nfile = \"m.glb\"\n"
     );
-    match prism::scene::load_str(&scene, dir.path()) {
+    match prism::load::load_str(&scene, dir.path()) {
         Ok(s) => {
             let options = prism::render::RenderOptions {
                 threads: Some(1),
-                ..prism::render::RenderOptions::new(&s)
+                ..s.settings.options()
             };
-            let (_, stats) = prism::render::render(&s, &options).unwrap();
+            let (_, stats) = prism::render::render(&s.scene, &s.settings, &options).unwrap();
             prop_assert_eq!(stats.non_finite, 0);
         }
         Err(e) => prop_assert!(e.message.contains("m.glb"), "{}", e.message),
@@ -449,8 +449,8 @@ fn rich_gltf_sample_loads() {
     .unwrap();
     let scene = "[camera]\nfrom_file = \"m.glb\"\n[film]\nresolution = [4, 4]\nspp = 1\n\
                  [[shape]]\ntype = \"gltf\"\nfile = \"m.glb\"\n";
-    let s = prism::scene::load_str(scene, dir.path()).unwrap_or_else(|e| panic!("{}", e.message));
-    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let s = prism::load::load_str(scene, dir.path()).unwrap_or_else(|e| panic!("{}", e.message));
+    assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);
 }
 
 // Resource bombs, special files and integer ranges (issue 19's classes).
@@ -468,13 +468,13 @@ fn jpeg(w: u32, h: u32) -> Vec<u8> {
 }
 
 /// Loads a one-quad scene textured with `file`, within the test budget.
-fn load_textured(dir: &std::path::Path, file: &str) -> Result<prism::scene::Scene, String> {
+fn load_textured(dir: &std::path::Path, file: &str) -> Result<prism::load::Loaded, String> {
     let scene = format!(
         "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\n\
          [materials.t]\ntype = \"diffuse\"\ntexture = \"{file}\"\n\
          [[shape]]\ntype = \"quad\"\nvertices = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]\nmaterial = \"t\"\n"
     );
-    let (result, _) = prism::memory::tallying(Some(BUDGET), || prism::scene::load_str(&scene, dir));
+    let (result, _) = prism::memory::tallying(Some(BUDGET), || prism::load::load_str(&scene, dir));
     result.map_err(|e| e.message)
 }
 
@@ -494,7 +494,7 @@ proptest! {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("t.png"), common::assets::forged_png(width, height, colour, depth, rows)).unwrap();
         match load_textured(dir.path(), "t.png") {
-            Ok(s) => prop_assert!(s.image_bytes <= BUDGET),
+            Ok(s) => prop_assert!(s.scene.image_bytes <= BUDGET),
             Err(e) => prop_assert!(e.contains("t.png"), "{}", e),
         }
     }
@@ -517,8 +517,8 @@ proptest! {
         std::fs::write(dir.path().join("t.jpg"), &bytes).unwrap();
         match load_textured(dir.path(), "t.jpg") {
             Ok(s) => prop_assert!(
-                s.warnings.iter().any(|w| w.contains("t.jpg") && w.contains("truncated")),
-                "{:?}", s.warnings
+                s.report.warnings.iter().any(|w| w.contains("t.jpg") && w.contains("truncated")),
+                "{:?}", s.report.warnings
             ),
             Err(e) => prop_assert!(e.contains("t.jpg"), "{}", e),
         }
@@ -555,7 +555,7 @@ proptest! {
         back in 1u32..200,
         len in 1u32..40,
     ) {
-        let scene = prism::scene::load_str(
+        let scene = prism::load::load_str(
             &VALID.replace("resolution = [8, 8]", "resolution = [1, 1]"),
             std::path::Path::new("."),
         ).unwrap();
@@ -566,9 +566,9 @@ proptest! {
             threads: Some(1),
             progress: false,
             samples: start..end,
-            ..prism::render::RenderOptions::new(&scene)
+            ..scene.settings.options()
         };
-        let (film, stats) = prism::render::render(&scene, &options).unwrap();
+        let (film, stats) = prism::render::render(&scene.scene, &scene.settings, &options).unwrap();
         prop_assert_eq!(film.sums(0, 0).samples, (end - start) as u64);
         prop_assert_eq!(stats.samples, (end - start) as u64);
     }
@@ -641,8 +641,8 @@ fn special_files_in_place_of_any_input_are_refused_without_blocking() {
     ];
     // Each load's error, or its warnings (a material library is optional:
     // one that cannot be read is named in a warning).
-    let message = |r: Result<prism::scene::Scene, prism::scene::SceneError>| match r {
-        Ok(s) => s.warnings.join("; "),
+    let message = |r: Result<prism::load::Loaded, prism::load::SceneError>| match r {
+        Ok(s) => s.report.warnings.join("; "),
         Err(e) => e.to_string(),
     };
     let (sender, receiver) = std::sync::mpsc::channel();
@@ -650,10 +650,10 @@ fn special_files_in_place_of_any_input_are_refused_without_blocking() {
     std::thread::spawn(move || {
         for (file, scene) in cases {
             sender
-                .send((file, message(prism::scene::load_str(&scene, &base))))
+                .send((file, message(prism::load::load_str(&scene, &base))))
                 .unwrap();
         }
-        let r = prism::scene::load(&base.join("scene.toml"));
+        let r = prism::load::load(&base.join("scene.toml"));
         sender.send(("scene.toml", message(r))).unwrap();
     });
     for _ in 0..7 {

@@ -8,19 +8,20 @@ use common::{assert_blocks_agree, scene};
 use glam::Vec3;
 use prism::film::Film;
 use prism::geometry::Ray;
+use prism::load::Loaded;
 use prism::render::{render, RenderOptions, RenderStats};
 use prism::sampler::Sampler;
-use prism::scene::Scene;
 use prism::spectrum::{cie, SampledWavelengths};
 
 /// Renders and asserts what must hold for every scene: no non-finite
 /// sample, no IOR stack overflow.
-fn render_checked(s: &Scene) -> (Film, RenderStats) {
+fn render_checked(s: &Loaded) -> (Film, RenderStats) {
     let (film, stats) = render(
-        s,
+        &s.scene,
+        &s.settings,
         &RenderOptions {
             threads: Some(2),
-            ..RenderOptions::new(s)
+            ..s.settings.options()
         },
     )
     .unwrap();
@@ -186,7 +187,7 @@ fn the_same_image_at_every_scale() {
                 .unwrap()
                 .insert("transform".into(), toml::Value::Table(tr));
         }
-        prism::scene::load_str(&toml::to_string(&t).unwrap(), path.parent().unwrap()).unwrap()
+        prism::load::load_str(&toml::to_string(&t).unwrap(), path.parent().unwrap()).unwrap()
     };
     let (reference, _) = render_checked(&base);
     for scale in [1e-4, 1e5] {
@@ -210,11 +211,11 @@ fn grazing_camera_rays_and_degenerate_triangles() {
          [[shape]]\ntype = \"quad\"\nvertices = [[-50, 0, -50], [-50, 0, 50], [50, 0, 50], [50, 0, -50]]\nmaterial = \"white\"\n\
          [[shape]]\ntype = \"quad\"\nvertices = [[-1, 3, -1], [1, 3, -1], [1, 3, 1], [-1, 3, 1]]\nemission = 10\n"
     );
-    let s = prism::scene::load_str(&text, dir.path()).unwrap();
+    let s = prism::load::load_str(&text, dir.path()).unwrap();
     assert!(
-        s.degenerate_triangles >= 2,
+        s.scene.degenerate_triangles >= 2,
         "{} degenerate triangles dropped",
-        s.degenerate_triangles
+        s.scene.degenerate_triangles
     );
     render_checked(&s);
 }
@@ -301,10 +302,11 @@ fn deep_nesting_overflows_are_counted_not_a_panic() {
     }
     let s = scene(&text);
     let (film, stats) = render(
-        &s,
+        &s.scene,
+        &s.settings,
         &RenderOptions {
             threads: Some(2),
-            ..RenderOptions::new(&s)
+            ..s.settings.options()
         },
     )
     .unwrap();

@@ -10,8 +10,9 @@ use std::sync::Arc;
 use common::assets::{self, GltfBuilder};
 use glam::{Vec2, Vec3, Vec4};
 use prism::geometry::Ray;
+use prism::load::{load, Loaded};
 use prism::material::{Ior, Material, ShadingGeometry};
-use prism::scene::{load, Scene};
+use prism::scene::Scene;
 use prism::spectrum::SampledWavelengths;
 
 /// Writes NAME.obj and NAME.mtl into `dir`.
@@ -22,7 +23,7 @@ fn write_obj_mtl(dir: &Path, name: &str, obj: &str, mtl: &str) {
 
 const CAMERA: &str = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n";
 
-fn scene_in(dir: &Path, text: &str) -> Result<Scene, String> {
+fn scene_in(dir: &Path, text: &str) -> Result<Loaded, String> {
     let path = dir.join("scene.toml");
     std::fs::write(&path, text).unwrap();
     load(&path).map_err(|e| e.to_string())
@@ -99,17 +100,18 @@ fn gltf_external_embedded_and_glb_give_the_same_geometry() {
         assets::write_gltf_embedded(dir.path(), "quad", &json, &b.bin),
         assets::write_glb(dir.path(), "quad", &json, &b.bin),
     ];
-    let scenes: Vec<Scene> = files
+    let scenes: Vec<Loaded> = files
         .iter()
         .map(|f| scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", f, ""))).unwrap())
         .collect();
-    let reference = triangles(&scenes[0]);
+    let reference = triangles(&scenes[0].scene);
     assert_eq!(reference.len(), 2);
     for s in &scenes[1..] {
-        assert_eq!(triangles(s), reference);
+        assert_eq!(triangles(&s.scene), reference);
     }
     // TRS parent · matrix child: corners at (±2, ±2, -1).
-    let s = &scenes[0];
+    let loaded = &scenes[0];
+    let s = &loaded.scene;
     let h = hit(s, Vec3::new(1.9, 1.9, 5.0), -Vec3::Z);
     assert!((h.p.z + 1.0).abs() < 1e-5, "{}", h.p);
     assert!(s
@@ -120,9 +122,13 @@ fn gltf_external_embedded_and_glb_give_the_same_geometry() {
     assert!((h.uv - Vec2::new(0.25, 0.25)).length() < 1e-5, "{}", h.uv);
     // Geometry only: the one warning is that nothing emits.
     assert!(
-        s.warnings.iter().all(|w| w.contains("no light")),
+        loaded
+            .report
+            .warnings
+            .iter()
+            .all(|w| w.contains("no light")),
         "{:?}",
-        s.warnings
+        loaded.report.warnings
     );
     // A rotation quaternion of length 3 (exporters round; broken files
     // scale) rotates like the unit one instead of scaling by 9.
@@ -133,7 +139,8 @@ fn gltf_external_embedded_and_glb_give_the_same_geometry() {
     let f = assets::write_glb(dir.path(), "turned", &turned, &b.bin);
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
     let reach = |x: f32| {
-        s.intersect(&Ray::new(Vec3::new(x, 0.0, 5.0), -Vec3::Z))
+        s.scene
+            .intersect(&Ray::new(Vec3::new(x, 0.0, 5.0), -Vec3::Z))
             .is_some()
     };
     // Turned 90° about z the quad still spans ±2.
@@ -165,9 +172,9 @@ fn gltf_non_indexed_primitives_and_missing_normals() {
     ));
     let f = assets::write_glb(dir.path(), "flat", &json, &b.bin);
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
-    assert_eq!(s.triangle_count(), 2);
+    assert_eq!(s.scene.triangle_count(), 2);
     // No normals: flat shading (glTF requires flat normals then).
-    let h = hit(&s, Vec3::new(0.3, -0.2, 5.0), -Vec3::Z);
+    let h = hit(&s.scene, Vec3::new(0.3, -0.2, 5.0), -Vec3::Z);
     assert_eq!(h.ns, h.ng);
     assert_eq!(h.ng, Vec3::Z);
 }
@@ -187,11 +194,11 @@ fn gltf_sparse_accessor_replaces_elements() {
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
     // Geometry only: the one warning is that nothing emits.
     assert!(
-        s.warnings.iter().all(|w| w.contains("no light")),
+        s.report.warnings.iter().all(|w| w.contains("no light")),
         "{:?}",
-        s.warnings
+        s.report.warnings
     );
-    let near = |p: Vec3| hit(&s, p + Vec3::Z * 5.0, -Vec3::Z).uv;
+    let near = |p: Vec3| hit(&s.scene, p + Vec3::Z * 5.0, -Vec3::Z).uv;
     assert!((near(Vec3::new(0.999, 0.999, 0.0)) - Vec2::new(0.5, 0.25)).length() < 0.01);
     // Untouched corners keep the base values.
     assert!((near(Vec3::new(-0.999, -0.999, 0.0)) - Vec2::new(0.0, 1.0)).length() < 0.01);
@@ -226,8 +233,8 @@ fn gltf_materials_map_to_spectral_materials() {
     let f = assets::write_glb(dir.path(), "materials", &json, &b.bin);
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
     let at = |x: f32| {
-        let h = hit(&s, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
-        (h, &s.materials[h.material as usize])
+        let h = hit(&s.scene, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
+        (h, &s.scene.materials[h.material as usize])
     };
     match at(0.0).1 {
         Material::Pbr(m) => {
@@ -238,11 +245,12 @@ fn gltf_materials_map_to_spectral_materials() {
             // The file has no texture 0: said, and the factor alone used.
             assert!(c.texture.is_none());
             assert!(
-                s.warnings
+                s.report
+                    .warnings
                     .iter()
                     .any(|w| w.contains("clearcoatTexture names texture 0")),
                 "{:?}",
-                s.warnings
+                s.report.warnings
             );
             let i = l.iridescence.as_ref().expect("iridescence mapped");
             assert_eq!((i.weight, i.ior, i.thickness), (1.0, 1.4, [100.0, 420.0]));
@@ -281,7 +289,7 @@ fn gltf_materials_map_to_spectral_materials() {
     let (h, _) = at(6.0);
     let light = h.light.expect("the lamp is a light");
     let wl = wavelengths();
-    let light = s.lights.get(light);
+    let light = s.scene.lights.get(light);
     let front = light.l(h.uv, h.ng, &wl);
     let back = light.l(h.uv, -h.ng, &wl);
     assert_eq!(front, back);
@@ -301,11 +309,12 @@ fn gltf_materials_map_to_spectral_materials() {
     }
     // What is not mapped is reported once, in one warning.
     let ignored: Vec<&String> = s
+        .report
         .warnings
         .iter()
         .filter(|w| w.contains("ignored"))
         .collect();
-    assert_eq!(ignored.len(), 1, "{:?}", s.warnings);
+    assert_eq!(ignored.len(), 1, "{:?}", s.report.warnings);
     assert!(
         ignored[0].contains("KHR_materials_anisotropy") && !ignored[0].contains("clearcoatTexture"),
         "{}",
@@ -351,8 +360,8 @@ fn gltf_textures_embedded_with_sampler_and_transform() {
     // Quadrants of the first quad: top-left red, top-right green,
     // bottom-left blue, bottom-right white (nearest filtering).
     let colour = |x: f32, y: f32| {
-        let h = hit(&s, Vec3::new(x, y, 5.0), -Vec3::Z);
-        let Material::Pbr(m) = &s.materials[h.material as usize] else {
+        let h = hit(&s.scene, Vec3::new(x, y, 5.0), -Vec3::Z);
+        let Material::Pbr(m) = &s.scene.materials[h.material as usize] else {
             panic!("not pbr")
         };
         m.base_color.sample(h.uv, &wavelengths())
@@ -372,13 +381,13 @@ fn gltf_textures_embedded_with_sampler_and_transform() {
     let c = colour(3.0 - 0.9, 0.5);
     assert!(c.y > 0.6 && c.w < 0.2, "transformed {c}");
     // One image, decoded once, shared by both materials.
-    let tex = |i: usize| match &s.materials[i] {
+    let tex = |i: usize| match &s.scene.materials[i] {
         Material::Pbr(m) => m.base_color.texture.as_ref().unwrap().texture.clone(),
         _ => panic!(),
     };
     let (a, b) = (
-        hit(&s, Vec3::new(0.0, 0.0, 5.0), -Vec3::Z),
-        hit(&s, Vec3::new(3.0, 0.0, 5.0), -Vec3::Z),
+        hit(&s.scene, Vec3::new(0.0, 0.0, 5.0), -Vec3::Z),
+        hit(&s.scene, Vec3::new(3.0, 0.0, 5.0), -Vec3::Z),
     );
     assert!(Arc::ptr_eq(
         &tex(a.material as usize),
@@ -409,8 +418,8 @@ fn gltf_external_textures_with_srgb_and_missing_file_warning() {
     ));
     let f = assets::write_gltf_external(dir.path(), "grey", &json, &b.bin);
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
-    let h = hit(&s, Vec3::new(0.2, 0.3, 5.0), -Vec3::Z);
-    let Material::Pbr(m) = &s.materials[h.material as usize] else {
+    let h = hit(&s.scene, Vec3::new(0.2, 0.3, 5.0), -Vec3::Z);
+    let Material::Pbr(m) = &s.scene.materials[h.material as usize] else {
         panic!()
     };
     let v = m.base_color.sample(h.uv, &wavelengths());
@@ -419,12 +428,12 @@ fn gltf_external_textures_with_srgb_and_missing_file_warning() {
     }
     // The missing image: a warning naming it; the factor alone is used.
     assert!(
-        s.warnings.iter().any(|w| w.contains("missing.png")),
+        s.report.warnings.iter().any(|w| w.contains("missing.png")),
         "{:?}",
-        s.warnings
+        s.report.warnings
     );
-    let h = hit(&s, Vec3::new(3.0, 0.0, 5.0), -Vec3::Z);
-    let Material::Pbr(m) = &s.materials[h.material as usize] else {
+    let h = hit(&s.scene, Vec3::new(3.0, 0.0, 5.0), -Vec3::Z);
+    let Material::Pbr(m) = &s.scene.materials[h.material as usize] else {
         panic!()
     };
     assert!(m.base_color.texture.is_none());
@@ -489,11 +498,11 @@ fn gltf_camera_is_used_when_the_scene_asks() {
         shape("gltf", &f, "")
     );
     let scene = scene_in(dir.path(), &text).unwrap();
-    let ray = scene.camera.generate_ray(10.0, 5.0);
+    let ray = scene.scene.camera.generate_ray(10.0, 5.0);
     assert!((ray.origin - Vec3::new(0.0, 0.0, 10.0)).length() < 1e-5);
     assert!((ray.dir - -Vec3::X).length() < 1e-4, "{}", ray.dir);
     // Vertical field of view 0.5 rad: the top edge ray is 0.25 rad up.
-    let top = scene.camera.generate_ray(10.0, 0.0);
+    let top = scene.scene.camera.generate_ray(10.0, 0.0);
     assert!((top.dir.y.asin() - 0.25).abs() < 1e-3, "{}", top.dir);
     // An unknown camera name is an error listing the cameras there are.
     let e = scene_error(dir.path(), &text.replace("overview", "closeup"));
@@ -519,19 +528,23 @@ fn instances_overrides_and_mesh_selection() {
     );
     let s = scene_in(dir.path(), &text).unwrap();
     // 2 meshes + 1 + 1 instances, 2 triangles each.
-    assert_eq!(s.triangle_count(), 8);
-    let h = hit(&s, Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
+    assert_eq!(s.scene.triangle_count(), 8);
+    let h = hit(&s.scene, Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
     assert!(matches!(
-        s.materials[h.material as usize],
+        s.scene.materials[h.material as usize],
         Material::Diffuse { .. }
     ));
-    let h = hit(&s, Vec3::new(5.0, 0.0, 5.0), -Vec3::Z);
+    let h = hit(&s.scene, Vec3::new(5.0, 0.0, 5.0), -Vec3::Z);
     assert!((h.p.z + 3.0).abs() < 1e-5, "the back mesh only: {}", h.p);
-    assert!(matches!(s.materials[h.material as usize], Material::Pbr(_)));
-    let h = hit(&s, Vec3::new(-5.0, 0.0, 5.0), -Vec3::Z);
+    assert!(matches!(
+        s.scene.materials[h.material as usize],
+        Material::Pbr(_)
+    ));
+    let h = hit(&s.scene, Vec3::new(-5.0, 0.0, 5.0), -Vec3::Z);
     assert!(h.p.z.abs() < 1e-5);
     // The file's material is added once however many instances use it.
     let pbr = s
+        .scene
         .materials
         .iter()
         .filter(|m| matches!(m, Material::Pbr(_)))
@@ -583,13 +596,13 @@ fn normal_maps_bend_the_shading_normal_in_tangent_space() {
             &format!("{CAMERA}{}", shape("gltf", &f, transform)),
         )
         .unwrap();
-        let h = hit(&s, Vec3::new(0.3, 0.2, 5.0), -Vec3::Z);
+        let h = hit(&s.scene, Vec3::new(0.3, 0.2, 5.0), -Vec3::Z);
         assert!(
             h.tangent.truncate().dot(u_dir) > 0.99,
             "generated tangent {}",
             h.tangent
         );
-        let n = s.materials[h.material as usize].shading_normal(h.ns, h.tangent, h.uv);
+        let n = s.scene.materials[h.material as usize].shading_normal(h.ns, h.tangent, h.uv);
         let expected = (u_dir * sin + Vec3::Z * cos).normalize();
         assert!(
             (n - expected).length() < 0.02,
@@ -754,30 +767,30 @@ fn obj_with_mtl_polygons_groups_and_textures() {
     )
     .unwrap();
     // Quad (2) + pentagon (3) + four triangles.
-    assert_eq!(s.triangle_count(), 9);
+    assert_eq!(s.scene.triangle_count(), 9);
     // The floor's texture, through negative indices and OBJ's upward v:
     // vt v = 0 (the image's bottom row: blue, white) lies at z = -1.
     // Rays start under the lamp and above the slanted triangles.
-    let h = hit(&s, Vec3::new(-0.5, 0.3, -0.5), -Vec3::Y);
-    let r = reflectance_at(&s, &h);
+    let h = hit(&s.scene, Vec3::new(-0.5, 0.3, -0.5), -Vec3::Y);
+    let r = reflectance_at(&s.scene, &h);
     assert!(r.x > 0.6 && r.w < 0.1, "blue at (-0.5, -0.5): {r}");
-    let h = hit(&s, Vec3::new(0.5, 0.3, 0.5), -Vec3::Y);
-    let r = reflectance_at(&s, &h);
+    let h = hit(&s.scene, Vec3::new(0.5, 0.3, 0.5), -Vec3::Y);
+    let r = reflectance_at(&s.scene, &h);
     assert!(r.y > 0.6 && r.x < 0.2, "green at (0.5, 0.5): {r}");
     // The pentagon emits Ke.
-    let h = hit(&s, Vec3::new(0.0, 2.0, 0.0), -Vec3::Y);
+    let h = hit(&s.scene, Vec3::new(0.0, 2.0, 0.0), -Vec3::Y);
     assert!(h.light.is_some(), "Ke makes a light");
     // d < 1 with Ni → dielectric with Ni; illum 3 → metal.
-    let kinds: Vec<&Material> = s.materials.iter().collect();
+    let kinds: Vec<&Material> = s.scene.materials.iter().collect();
     assert!(kinds.iter().any(|m| matches!(m, Material::Dielectric { ior: Ior::Constant(n), .. } if (*n - 1.33).abs() < 1e-6)));
     assert!(kinds
         .iter()
         .any(|m| matches!(m, Material::Pbr(p) if p.metallic == 1.0)));
     // Dissolve without an index is a cut-out now, not an ignored feature.
     assert!(
-        !s.warnings.iter().any(|w| w.contains("dissolve")),
+        !s.report.warnings.iter().any(|w| w.contains("dissolve")),
         "{:?}",
-        s.warnings
+        s.report.warnings
     );
     // The undefined material `nosuch` (face 3 4 7) gets the scene default,
     // diffuse 0.5: seen by a ray onto the face along its normal.
@@ -790,12 +803,12 @@ fn obj_with_mtl_polygons_groups_and_textures() {
     let n = (corners[1] - corners[0])
         .cross(corners[2] - corners[0])
         .normalize();
-    let h = hit(&s, centre + 0.01 * n, -n);
+    let h = hit(&s.scene, centre + 0.01 * n, -n);
     assert!(matches!(
-        s.materials[h.material as usize],
+        s.scene.materials[h.material as usize],
         Material::Diffuse { .. }
     ));
-    let r = reflectance_at(&s, &h);
+    let r = reflectance_at(&s.scene, &h);
     assert!((r - Vec4::splat(0.5)).abs().max_element() < 1e-5, "{r}");
 }
 
@@ -811,15 +824,16 @@ fn obj_missing_or_broken_mtl_is_a_warning() {
         )
         .unwrap();
         assert!(
-            s.warnings.iter().any(|w| w.contains(what)),
+            s.report.warnings.iter().any(|w| w.contains(what)),
             "{what}: {:?}",
-            s.warnings
+            s.report.warnings
         );
         s
     };
     let s = load_warning("scene.mtl");
-    assert_eq!(s.triangle_count(), 9);
+    assert_eq!(s.scene.triangle_count(), 9);
     assert!(s
+        .scene
         .materials
         .iter()
         .all(|m| matches!(m, Material::Diffuse { .. })));
@@ -835,6 +849,7 @@ fn obj_missing_or_broken_mtl_is_a_warning() {
     );
     let s = scene_in(dir.path(), &text).unwrap();
     assert!(!s
+        .scene
         .materials
         .iter()
         .any(|m| matches!(m, Material::Dielectric { .. })));
@@ -855,15 +870,15 @@ fn toml_diffuse_texture() {
     );
     let s = scene_in(dir.path(), &text).unwrap();
     // Top-left texel (red) times 0.5.
-    let h = hit(&s, Vec3::new(-0.5, 0.5, 5.0), -Vec3::Z);
-    let r = reflectance_at(&s, &h);
+    let h = hit(&s.scene, Vec3::new(-0.5, 0.5, 5.0), -Vec3::Z);
+    let r = reflectance_at(&s.scene, &h);
     assert!(r.w > 0.4 && r.w < 0.51 && r.x < 0.05, "{r}");
     // JPEG too: a uniform sRGB 200 grey (linear 0.578), lossy but flat.
     let grey = image::RgbImage::from_pixel(8, 8, image::Rgb([200, 200, 200]));
     grey.save(dir.path().join("grey.jpg")).unwrap();
     let s = scene_in(dir.path(), &text.replace("checker.png", "grey.jpg")).unwrap();
-    let h = hit(&s, Vec3::new(0.1, 0.2, 5.0), -Vec3::Z);
-    let r = reflectance_at(&s, &h);
+    let h = hit(&s.scene, Vec3::new(0.1, 0.2, 5.0), -Vec3::Z);
+    let r = reflectance_at(&s.scene, &h);
     for c in r.to_array() {
         assert!((c - 0.5 * 0.578).abs() < 0.01, "{r}");
     }
@@ -897,8 +912,8 @@ fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too()
         &format!("units = 0.01\n{CAMERA}{}", shape("gltf", &f, "")),
     )
     .unwrap();
-    let h = hit(&s, Vec3::new(0.0, 0.1, 5.0), -Vec3::Z);
-    let m = s.materials[h.material as usize]
+    let h = hit(&s.scene, Vec3::new(0.0, 0.1, 5.0), -Vec3::Z);
+    let m = s.scene.materials[h.material as usize]
         .medium()
         .expect("the volume's attenuation fills the glass");
     assert!(!m.scatters());
@@ -916,9 +931,9 @@ fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too()
         "amber absorbs blue"
     );
     assert!(
-        s.warnings.iter().any(|w| w.contains("thickness")),
+        s.report.warnings.iter().any(|w| w.contains("thickness")),
         "thicknessFactor is said to be ignored: {:?}",
-        s.warnings
+        s.report.warnings
     );
 
     // OBJ: Tf on glass is a filter (per unit of path), elsewhere ignored.
@@ -933,8 +948,8 @@ fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too()
         &format!("{CAMERA}{}", shape("obj", "tf.obj", "")),
     )
     .unwrap();
-    let h = hit(&s, Vec3::new(0.0, 0.1, 5.0), -Vec3::Z);
-    let m = s.materials[h.material as usize]
+    let h = hit(&s.scene, Vec3::new(0.0, 0.1, 5.0), -Vec3::Z);
+    let m = s.scene.materials[h.material as usize]
         .medium()
         .expect("Tf fills the glass");
     assert!(
@@ -942,9 +957,9 @@ fn gltf_volume_attenuation_becomes_an_absorbing_medium_and_mtl_tf_on_glass_too()
         "green glass"
     );
     assert!(
-        !s.warnings.iter().any(|w| w.contains("Tf")),
+        !s.report.warnings.iter().any(|w| w.contains("Tf")),
         "{:?}",
-        s.warnings
+        s.report.warnings
     );
 }
 
@@ -977,9 +992,10 @@ fn a_concave_obj_face_keeps_its_hole() {
         &format!("{CAMERA}{}", shape("obj", "ring.obj", "")),
     )
     .unwrap();
-    assert_eq!(s.triangle_count(), 64);
+    assert_eq!(s.scene.triangle_count(), 64);
     let hits = |x: f32, y: f32| {
-        s.intersect(&Ray::new(Vec3::new(x, y, 5.0), -Vec3::Z))
+        s.scene
+            .intersect(&Ray::new(Vec3::new(x, y, 5.0), -Vec3::Z))
             .is_some()
     };
     // The ring is there all round; the hole is empty.
@@ -1018,12 +1034,13 @@ fn mtl_textures_with_windows_paths_and_other_case_are_found_and_only_used_materi
     )
     .unwrap();
     let textured = s
+        .scene
         .materials
         .iter()
         .filter(|m| matches!(m, Material::Diffuse { reflectance } if reflectance.texture.is_some()))
         .count();
     assert_eq!(textured, 2, "both textures found");
-    let all = s.warnings.join("\n");
+    let all = s.report.warnings.join("\n");
     assert!(all.contains("wall.png") && all.contains("case"), "{all}");
     assert!(
         !all.contains("local.png"),
@@ -1061,8 +1078,8 @@ fn gltf_transmission_follows_the_textured_metalness_per_texel() {
     let f = assets::write_glb(dir.path(), "half_metal", &json, &b.bin);
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
     let flags_at = |x: f32| {
-        let h = hit(&s, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
-        let m = &s.materials[h.material as usize];
+        let h = hit(&s.scene, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
+        let m = &s.scene.materials[h.material as usize];
         let geom = ShadingGeometry {
             ng: h.ng,
             ns: h.ns,
@@ -1081,8 +1098,8 @@ fn gltf_transmission_follows_the_textured_metalness_per_texel() {
         "metal where metal is 1"
     );
     // The glass half sits on the IOR stack as a dielectric.
-    let h = hit(&s, Vec3::new(-0.5, 0.1, 5.0), -Vec3::Z);
-    assert!(s.materials[h.material as usize].bounds_volume());
+    let h = hit(&s.scene, Vec3::new(-0.5, 0.1, 5.0), -Vec3::Z);
+    assert!(s.scene.materials[h.material as usize].bounds_volume());
 }
 
 #[test]
@@ -1111,10 +1128,13 @@ fn gltf_alpha_mask_and_blend_and_mtl_dissolve_cut_surfaces_out() {
     let down = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 5.0), -Vec3::Z);
     // MASK: the left half is not there, for closest hits and shadow rays.
     for y in [-0.7f32, 0.0, 0.6] {
-        assert!(s.intersect(&down(-0.5, y)).is_none(), "masked out at y {y}");
-        assert!(!s.occluded(&down(-0.5, y)));
-        assert!(s.intersect(&down(0.5, y)).is_some(), "kept at y {y}");
-        assert!(s.occluded(&down(0.5, y)));
+        assert!(
+            s.scene.intersect(&down(-0.5, y)).is_none(),
+            "masked out at y {y}"
+        );
+        assert!(!s.scene.occluded(&down(-0.5, y)));
+        assert!(s.scene.intersect(&down(0.5, y)).is_some(), "kept at y {y}");
+        assert!(s.scene.occluded(&down(0.5, y)));
     }
     // BLEND: present with probability 0.3, decided per ray.
     let n = 4000;
@@ -1124,7 +1144,7 @@ fn gltf_alpha_mask_and_blend_and_mtl_dissolve_cut_surfaces_out() {
                 3.0 + 1.8 * ((*i as f32 * 0.618_034).fract() - 0.5),
                 1.8 * ((*i as f32 * 0.414_214).fract() - 0.5),
             );
-            s.intersect(&down(x, y)).is_some()
+            s.scene.intersect(&down(x, y)).is_some()
         })
         .count() as f64
         / n as f64;
@@ -1134,9 +1154,9 @@ fn gltf_alpha_mask_and_blend_and_mtl_dissolve_cut_surfaces_out() {
         "blend coverage {hits} against 0.3 ± {sigma}"
     );
     assert!(
-        !s.warnings.iter().any(|w| w.contains("alphaMode")),
+        !s.report.warnings.iter().any(|w| w.contains("alphaMode")),
         "{:?}",
-        s.warnings
+        s.report.warnings
     );
 
     // MTL: dissolve on a diffuse surface, and a grey map_d without alpha.
@@ -1162,17 +1182,17 @@ fn gltf_alpha_mask_and_blend_and_mtl_dissolve_cut_surfaces_out() {
     )
     .unwrap();
     assert!(
-        s.intersect(&down(-0.5, 0.0)).is_none(),
+        s.scene.intersect(&down(-0.5, 0.0)).is_none(),
         "black in the matte: absent"
     );
     assert!(
-        s.intersect(&down(0.5, 0.0)).is_some(),
+        s.scene.intersect(&down(0.5, 0.0)).is_some(),
         "white in the matte: present"
     );
     assert!(
-        !s.warnings.iter().any(|w| w.contains("map_d")),
+        !s.report.warnings.iter().any(|w| w.contains("map_d")),
         "{:?}",
-        s.warnings
+        s.report.warnings
     );
 }
 
@@ -1244,13 +1264,13 @@ fn gltf_extension_textures_vary_the_layers_over_the_surface() {
     let f = assets::write_glb(dir.path(), "film", &json, &b.bin);
     let s = scene_in(dir.path(), &format!("{CAMERA}{}", shape("gltf", &f, ""))).unwrap();
     let reflected = |x: f32| {
-        let h = hit(&s, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
+        let h = hit(&s.scene, Vec3::new(x, 0.1, 5.0), -Vec3::Z);
         let geom = ShadingGeometry {
             ng: h.ng,
             ns: h.ns,
             wo: Vec3::new(0.3, 0.0, 1.0).normalize(),
         };
-        let b = s.materials[h.material as usize].bsdf(
+        let b = s.scene.materials[h.material as usize].bsdf(
             &geom,
             h.uv,
             &mut wavelengths(),

@@ -11,10 +11,10 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use prism::film::Film;
+use prism::load::Loaded;
 use prism::render::{render, RenderOptions, Stop};
-use prism::scene::Scene;
 
-fn cornell() -> Scene {
+fn cornell() -> Loaded {
     common::scene(&common::agree::cornell_box())
 }
 
@@ -51,18 +51,19 @@ fn an_interrupted_render_is_complete_and_equals_a_render_of_its_samples() {
     let options = RenderOptions {
         cancel: Some(Arc::new(AtomicBool::new(true))),
         threads: Some(2),
-        ..RenderOptions::with_spp(&scene, 64)
+        ..RenderOptions::with_spp(&scene.settings.film, 64)
     };
-    let (film, stats) = render(&scene, &options).unwrap();
+    let (film, stats) = render(&scene.scene, &scene.settings, &options).unwrap();
     assert_eq!(stats.stop, Stop::Interrupted);
     assert!(stats.interrupted);
     assert_eq!(stats.spp, 1);
     every_pixel_has(&film, 1);
     let (one, _) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             threads: Some(2),
-            ..RenderOptions::with_spp(&scene, 1)
+            ..RenderOptions::with_spp(&scene.settings.film, 1)
         },
     )
     .unwrap();
@@ -75,9 +76,9 @@ fn a_time_budget_stops_after_whole_passes() {
     let options = RenderOptions {
         time_budget: Some(Duration::from_millis(300)),
         threads: Some(2),
-        ..RenderOptions::with_spp(&scene, 1_000_000)
+        ..RenderOptions::with_spp(&scene.settings.film, 1_000_000)
     };
-    let (film, stats) = render(&scene, &options).unwrap();
+    let (film, stats) = render(&scene.scene, &scene.settings, &options).unwrap();
     assert_eq!(stats.stop, Stop::TimeBudget);
     assert!(!stats.interrupted);
     // Passes of one sample under a budget: it stops within a pass of it.
@@ -85,10 +86,11 @@ fn a_time_budget_stops_after_whole_passes() {
     assert!(stats.spp >= 1 && stats.spp < 1_000_000);
     every_pixel_has(&film, stats.spp as u64);
     let (same, _) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             threads: Some(2),
-            ..RenderOptions::with_spp(&scene, stats.spp)
+            ..RenderOptions::with_spp(&scene.settings.film, stats.spp)
         },
     )
     .unwrap();
@@ -114,11 +116,12 @@ fn the_error_estimate_tracks_the_true_error_and_stops_at_the_target() {
     let scene = cornell();
     let render_spp = |spp: u32, seed: u64| {
         render(
-            &scene,
+            &scene.scene,
+            &scene.settings,
             &RenderOptions {
                 threads: Some(2),
                 seed,
-                ..RenderOptions::with_spp(&scene, spp)
+                ..RenderOptions::with_spp(&scene.settings.film, spp)
             },
         )
         .unwrap()
@@ -141,11 +144,12 @@ fn the_error_estimate_tracks_the_true_error_and_stops_at_the_target() {
     }
     let target = 2e-3;
     let (film, stats) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             target_error: Some(target),
             threads: Some(2),
-            ..RenderOptions::with_spp(&scene, 100_000)
+            ..RenderOptions::with_spp(&scene.settings.film, 100_000)
         },
     )
     .unwrap();
@@ -199,9 +203,12 @@ fn an_error_target_is_refused_for_splatting_integrators() {
     ));
     let options = RenderOptions {
         target_error: Some(0.01),
-        ..RenderOptions::new(&scene)
+        ..scene.settings.options()
     };
-    let e = render(&scene, &options).err().unwrap().to_string();
+    let e = render(&scene.scene, &scene.settings, &options)
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("per-pixel variances"), "{e}");
 }
 
@@ -255,12 +262,13 @@ fn adaptive_sampling_spends_the_budget_where_the_error_is_and_stays_unbiased() {
     let scene = cornell();
     let spp = 64;
     let (adaptive, stats) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             adaptive: true,
             threads: Some(2),
             seed: 11,
-            ..RenderOptions::with_spp(&scene, spp)
+            ..RenderOptions::with_spp(&scene.settings.film, spp)
         },
     )
     .unwrap();
@@ -277,11 +285,12 @@ fn adaptive_sampling_spends_the_budget_where_the_error_is_and_stays_unbiased() {
     assert!(*counts.iter().min().unwrap() >= stats.pilot_spp as u64);
     // Noisier pixels (by the uniform render's own estimate) got more.
     let (uniform, _) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             threads: Some(2),
             seed: 12,
-            ..RenderOptions::with_spp(&scene, spp)
+            ..RenderOptions::with_spp(&scene.settings.film, spp)
         },
     )
     .unwrap();
@@ -324,12 +333,13 @@ fn an_adaptive_render_stopped_early_has_each_pixels_share_of_its_count() {
         adaptive: true,
         threads: Some(2),
         seed: 13,
-        ..RenderOptions::with_spp(&scene, spp)
+        ..RenderOptions::with_spp(&scene.settings.film, spp)
     };
-    let (complete, stats) = render(&scene, &options).unwrap();
+    let (complete, stats) = render(&scene.scene, &scene.settings, &options).unwrap();
     let target = 2.5 * stats.estimated_rel_mse.unwrap();
     let (early, early_stats) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             target_error: Some(target),
             ..options
@@ -361,11 +371,12 @@ fn an_adaptive_render_stopped_early_has_each_pixels_share_of_its_count() {
 fn adaptive_sampling_is_refused_where_it_cannot_work() {
     let scene = cornell();
     let e = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             adaptive: true,
             samples: 8..16,
-            ..RenderOptions::new(&scene)
+            ..scene.settings.options()
         },
     )
     .err()
@@ -377,10 +388,11 @@ fn adaptive_sampling_is_refused_where_it_cannot_work() {
         common::agree::cornell_box()
     ));
     let e = render(
-        &light,
+        &light.scene,
+        &light.settings,
         &RenderOptions {
             adaptive: true,
-            ..RenderOptions::new(&light)
+            ..light.settings.options()
         },
     )
     .err()
@@ -397,11 +409,12 @@ fn sample_ranges_at_the_top_of_u32_finish() {
          [[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n",
     );
     let (film, stats) = render(
-        &scene,
+        &scene.scene,
+        &scene.settings,
         &RenderOptions {
             samples: u32::MAX - 40..u32::MAX,
             threads: Some(1),
-            ..RenderOptions::new(&scene)
+            ..scene.settings.options()
         },
     )
     .unwrap();

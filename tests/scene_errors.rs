@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use prism::scene::{load, load_str};
+use prism::load::{load, load_str};
 
 const CAMERA: &str = "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n";
 
@@ -192,7 +192,7 @@ fn optical_constants_are_not_illuminants() {
         Path::new(env!("CARGO_MANIFEST_DIR")),
     )
     .unwrap();
-    let prism::material::Material::Conductor { k, .. } = &s.materials[0] else {
+    let prism::material::Material::Conductor { k, .. } = &s.scene.materials[0] else {
         panic!("a conductor");
     };
     for lambda in [450.0, 550.0, 650.0] {
@@ -209,10 +209,11 @@ fn max_depth_moved_to_the_integrator() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let s = load_str(&format!("{CAMERA}[film]\nmax_depth = 3\n"), dir).unwrap();
     assert!(s
+        .report
         .warnings
         .iter()
         .any(|w| w.contains("integrator.max_depth")));
-    let prism::integrator::Integrator::Path(p) = &s.integrator else {
+    let prism::integrator::Integrator::Path(p) = &s.settings.integrator else {
         panic!("the default integrator is the path tracer");
     };
     assert_eq!(p.max_depth, 3);
@@ -258,18 +259,18 @@ fn a_scene_without_light_is_warned_about() {
     )
     .unwrap();
     assert!(
-        dark.warnings.iter().any(|w| w.contains("no light")),
+        dark.report.warnings.iter().any(|w| w.contains("no light")),
         "{:?}",
-        dark.warnings
+        dark.report.warnings
     );
     // Built-in spheres have no degenerate triangles to drop.
-    assert_eq!(dark.degenerate_triangles, 0);
+    assert_eq!(dark.scene.degenerate_triangles, 0);
     let lit = load_str(
         &format!("{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n"),
         dir,
     )
     .unwrap();
-    assert!(lit.warnings.is_empty(), "{:?}", lit.warnings);
+    assert!(lit.report.warnings.is_empty(), "{:?}", lit.report.warnings);
 }
 
 #[test]
@@ -298,22 +299,23 @@ fn photon_mapping_keys_are_checked_and_dropped_when_the_command_line_chooses_ano
         format!("{CAMERA}[integrator]\ntype = \"sppm\"\nphotons = 1000\nradius = 0.1\n"),
     )
     .unwrap();
-    let s = prism::scene::load_with(
+    let s = prism::load::load_with(
         &file,
-        &prism::scene::Overrides {
+        &prism::load::Overrides {
             integrator: Some(prism::integrator::IntegratorKind::Path),
             ..Default::default()
         },
     )
     .unwrap();
-    assert_eq!(s.integrator.name(), "path");
+    assert_eq!(s.settings.integrator.name(), "path");
     for key in ["photons", "radius"] {
         assert!(
-            s.warnings
+            s.report
+                .warnings
                 .iter()
                 .any(|w| w.contains(&format!("integrator.{key}")) && w.contains("ignored")),
             "{:?}",
-            s.warnings
+            s.report.warnings
         );
     }
 }
@@ -474,7 +476,7 @@ fn spd_spectrum_files_load_and_a_doubtful_unit_is_warned_about() {
     )
     .unwrap();
     let s = load(&path).unwrap_or_else(|e| panic!("{e}"));
-    let w = s.warnings.join("\n");
+    let w = s.report.warnings.join("\n");
     assert!(w.contains("lamp.spd") && w.contains("read as nm"), "{w}");
 }
 

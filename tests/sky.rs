@@ -279,9 +279,9 @@ fn floor_mean(integrator: &str, spp: u32, runs: u64) -> (f64, f64) {
             let options = RenderOptions {
                 seed,
                 threads: Some(2),
-                ..RenderOptions::with_spp(&scene, spp)
+                ..RenderOptions::with_spp(&scene.settings.film, spp)
             };
-            let (film, stats) = render(&scene, &options).unwrap();
+            let (film, stats) = render(&scene.scene, &scene.settings, &options).unwrap();
             assert_eq!(stats.non_finite, 0);
             image_mean(&film)
         })
@@ -361,7 +361,7 @@ fn strategies_and_bdpt_agree_under_sun_and_sky() {
 
 #[test]
 fn bad_skies_are_clear_errors() {
-    let error = |sky: &str| match prism::scene::load_str(
+    let error = |sky: &str| match prism::load::load_str(
         &format!("[camera]\nposition = [0, 1, -5]\nlook_at = [0, 0, 0]\n[environment]\n{sky}"),
         std::path::Path::new("."),
     ) {

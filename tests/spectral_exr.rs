@@ -5,7 +5,7 @@ mod common;
 
 use exr::prelude::*;
 use prism::film::spectral_exr::{self, channel_name};
-use prism::render::{render, RenderOptions};
+use prism::render::render;
 
 #[test]
 fn write_then_read_gives_identical_channels_and_attributes() {
@@ -14,7 +14,7 @@ fn write_then_read_gives_identical_channels_and_attributes() {
         "resolution = [20, 12]\nspp = 4\nspectral_range = [400, 700]\nspectral_buckets = 30",
         "",
     );
-    let (film, _) = render(&scene, &RenderOptions::new(&scene)).unwrap();
+    let (film, _) = render(&scene.scene, &scene.settings, &scene.settings.options()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("round.spectral.exr");
     spectral_exr::write(
@@ -91,7 +91,7 @@ fn the_same_film_gives_the_same_bytes() {
         "resolution = [8, 6]\nspp = 2",
         "",
     );
-    let (film, _) = render(&scene, &RenderOptions::new(&scene)).unwrap();
+    let (film, _) = render(&scene.scene, &scene.settings, &scene.settings.options()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let names: Vec<String> = (0..12).map(|i| format!("prismNote{i}")).collect();
     let attributes: Vec<(&str, String)> = names.iter().map(|n| (n.as_str(), n.clone())).collect();

@@ -8,9 +8,9 @@ mod common;
 
 use common::agree::{assert_scenes_agree, cornell_box, GLASS_METAL_SHADING};
 use common::{region_mean, render_film};
-use prism::scene::Scene;
+use prism::load::Loaded;
 
-fn with_split(text: &str, split: u32) -> Scene {
+fn with_split(text: &str, split: u32) -> Loaded {
     common::scene(&format!(
         "{text}\n[integrator]\ntype = \"path\"\nsplit = {split}\n"
     ))

@@ -10,12 +10,12 @@ mod common;
 use common::caustic;
 use common::region_mean;
 use prism::film::Film;
-use prism::scene::Scene;
+use prism::load::Loaded;
 
 /// Per 8 × 8 block, the mean luminance over the pixels that have an
 /// expected value, the variance of that mean and the expected value.
-fn blocks(film: &Film, scene: &Scene, expected: &[Option<f64>]) -> Vec<(f64, f64, f64)> {
-    let (w, h) = (scene.film.width, scene.film.height);
+fn blocks(film: &Film, scene: &Loaded, expected: &[Option<f64>]) -> Vec<(f64, f64, f64)> {
+    let (w, h) = (scene.settings.film.width, scene.settings.film.height);
     let mut out = Vec::new();
     for y0 in (0..h).step_by(8) {
         for x0 in (0..w).step_by(8) {
@@ -54,12 +54,12 @@ fn worst_z(blocks: &[(f64, f64, f64)]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn render(scene: &Scene, iterations: u32) -> Film {
+fn render(scene: &Loaded, iterations: u32) -> Film {
     let options = prism::render::RenderOptions {
         threads: Some(2),
-        ..prism::render::RenderOptions::with_spp(scene, iterations)
+        ..prism::render::RenderOptions::with_spp(&scene.settings.film, iterations)
     };
-    let (film, stats) = prism::render::render(scene, &options).unwrap();
+    let (film, stats) = prism::render::render(&scene.scene, &scene.settings, &options).unwrap();
     assert_eq!(stats.non_finite, 0);
     film
 }
@@ -80,8 +80,16 @@ fn sppm_measures_the_caustic_blurred_by_its_radius() {
         2,
     );
     let film = render(&s, 256);
-    let blurred = blocks(&film, &s, &caustic::expected_pixels(&s, false, false, r));
-    let sharp = blocks(&film, &s, &caustic::expected_pixels(&s, false, false, 0.0));
+    let blurred = blocks(
+        &film,
+        &s,
+        &caustic::expected_pixels(&s.scene, false, false, r),
+    );
+    let sharp = blocks(
+        &film,
+        &s,
+        &caustic::expected_pixels(&s.scene, false, false, 0.0),
+    );
     let zb = worst_z(&blurred);
     // The bias shows over all the blocks together: the sharp form's χ² is
     // far above what agreement gives (1 ± √(2/n) per block).
@@ -111,7 +119,7 @@ fn sppm_measures_the_caustic_blurred_by_its_radius() {
     let shrunk = blocks(
         &film,
         &s,
-        &caustic::expected_pixels(&s, false, false, mean_square.sqrt()),
+        &caustic::expected_pixels(&s.scene, false, false, mean_square.sqrt()),
     );
     let z = worst_z(&shrunk);
     eprintln!(
@@ -133,7 +141,7 @@ fn sppm_finds_caustics_seen_in_a_mirror() {
         true,
         3,
     );
-    let expected = caustic::expected_pixels(&s, true, true, r);
+    let expected = caustic::expected_pixels(&s.scene, true, true, r);
     let seen = expected.iter().filter(|e| e.is_some()).count();
     assert!(seen > 100, "{seen} pixels see the floor in the mirror");
     let film = render(&s, 256);

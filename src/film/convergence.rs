@@ -22,6 +22,10 @@ pub struct PrefixError {
 }
 
 /// Bytes per pixel that [`PrefixError`] holds.
+/// ε of the relative MSE, (x − r)² / (r² + ε): keeps black pixels from
+/// dominating (Rousselle et al. 2011 use 0.01 as well).
+pub const REL_MSE_EPSILON: f64 = 1e-2;
+
 pub const BYTES_PER_PIXEL: u64 = 2 * 4;
 
 impl PrefixError {
@@ -66,7 +70,7 @@ impl PrefixError {
         let pixels = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y)));
         for (i, (x, y)) in pixels.enumerate() {
             let m = film.luminance_and_variance(x, y).0;
-            let w = 1.0 / (m * m + crate::bench::REL_MSE_EPSILON);
+            let w = 1.0 / (m * m + REL_MSE_EPSILON);
             d += w * (b[i] as f64 - a[i] as f64).powi(2);
         }
         Some(d / (a.len() as f64).max(1.0) * (*n1 as f64 / spp as f64))
@@ -116,7 +120,7 @@ mod tests {
         assert!(e.estimate(&full, n as u64).is_none());
         e.record(&full, n as u64);
         // Each pixel's weight uses its own mean, close to 0.5.
-        let expected = (1.0 / 12.0) / n as f64 / (0.25 + crate::bench::REL_MSE_EPSILON);
+        let expected = (1.0 / 12.0) / n as f64 / (0.25 + REL_MSE_EPSILON);
         let estimate = e.estimate(&full, n as u64).unwrap();
         // 4000 pixels: the mean of squares is good to about 2.2%
         // (√(2/4000)), and the weights move it by about 1%; 5σ.

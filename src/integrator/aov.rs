@@ -16,21 +16,13 @@ use super::interface::{bsdf_at, trace, Next};
 use super::ior_stack::IorStack;
 use super::volume::Flight;
 use super::{camera_ray, PathCounters};
+use crate::drive::AovTracer;
+use crate::film::AovSample;
 use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::cie::{ColourMatching, Observer};
 use crate::spectrum::{cie, SampledSpectrum, Spectrum};
-
-/// One sample's AOVs.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct AovSample {
-    /// XYZ of the albedo under D65 (zero where the ray escapes).
-    pub albedo: Vec3,
-    /// Unit shading normal facing the ray (zero where it escapes).
-    pub normal: Vec3,
-    pub depth: f32,
-}
 
 /// What the AOVs of one render share: the film's observer and the
 /// normalisation of D65 under it.
@@ -50,9 +42,11 @@ impl Aovs {
             d65_scale: 1.0 / cmfs.spectrum_to_xyz(&d65).y,
         }
     }
+}
 
+impl AovTracer for Aovs {
     /// The AOVs of a camera ray through film position (`x`, `y`).
-    pub fn first_hit(&self, scene: &Scene, x: f32, y: f32, sampler: &mut Sampler) -> AovSample {
+    fn first_hit(&self, scene: &Scene, x: f32, y: f32, sampler: &mut Sampler) -> AovSample {
         let [u_lambda, uc, u0, u1] = sampler.next_4d();
         let mut wl = scene.wavelengths.sample(u_lambda);
         let mut ray = camera_ray(scene, x, y, sampler);

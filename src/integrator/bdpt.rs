@@ -36,7 +36,13 @@ use super::ior_stack::{Entry, IorStack};
 use super::light_path;
 use super::volume::{mis_divisor, Flight};
 use super::{camera_ray, lens_sample, PathCounters, PixelSample};
-use crate::film::FilmTile;
+use super::{Integrate, IntegratorSpec};
+use crate::camera::Camera;
+use crate::drive::{
+    splats::{self, SplatEstimator},
+    RenderError, RenderJob, RenderOptions, RenderStats,
+};
+use crate::film::{Film, FilmSettings, FilmTile};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::material::{Bsdf, TransportMode};
@@ -287,6 +293,60 @@ fn infinite_density(scene: &Scene, p: Vec3, wi: Vec3) -> f32 {
         .sum()
 }
 
+impl Bdpt {
+    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+        let d = Bdpt::default();
+        Ok(Bdpt {
+            max_depth: spec.max_depth.unwrap_or(d.max_depth),
+            rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+        })
+    }
+}
+
+impl SplatEstimator for Bdpt {
+    fn name(&self) -> &'static str {
+        "bdpt"
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        (x, y): (u32, u32),
+        sampler: &mut Sampler,
+        tile: &mut FilmTile,
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        self.trace(scene, x, y, sampler, tile, counters)
+    }
+}
+
+impl Integrate for Bdpt {
+    fn check(
+        &self,
+        camera: &Camera,
+        film: &FilmSettings,
+        options: &RenderOptions,
+    ) -> Result<(), RenderError> {
+        splats::check("bdpt", camera, film, options)
+    }
+
+    fn loop_memory(&self, _: &Scene, film: &FilmSettings, options: &RenderOptions) -> (u64, u64) {
+        splats::memory(self, film, options)
+    }
+
+    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
+        splats::render(job, self)
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+}
+
 thread_local! {
     /// The two subpaths of the sample being traced, reused so that no
     /// sample allocates.
@@ -296,7 +356,7 @@ thread_local! {
 impl Bdpt {
     /// One sample of pixel (x, y): its measurement, with the light-tracing
     /// connections (t = 1) splatted into `tile`.
-    pub fn sample(
+    pub fn trace(
         &self,
         scene: &Scene,
         x: u32,
@@ -363,8 +423,8 @@ impl Bdpt {
                     );
                     match c.raster {
                         Some(r) => {
-                            let px = (r.x as u32).min(scene.film.width - 1);
-                            let py = (r.y as u32).min(scene.film.height - 1);
+                            let px = (r.x as u32).min(scene.camera.resolution().0 - 1);
+                            let py = (r.y as u32).min(scene.camera.resolution().1 - 1);
                             tile.add_splat(px, py, c.l, &wl);
                         }
                         None => l += c.l,

@@ -72,7 +72,7 @@ pub fn trace(
     for _ in 0..=MAX_FALSE_INTERSECTIONS {
         counters.rays += 1;
         let hit = scene.intersect(ray);
-        if let Some(m) = scene.has_media().then(|| scene.medium_in(stack)).flatten() {
+        if let Some(m) = scene.has_media().then(|| stack.medium(scene)).flatten() {
             let speed = ray.dir.length();
             let d = hit.map_or(f32::INFINITY, |h| h.t * speed);
             if let Some(t) = volume::fly(m, wl, d, &mut optical_depth, flight) {
@@ -125,7 +125,7 @@ pub fn transmittance(
             counters.rays += 1;
         }
         let hit = scene.intersect(&ray);
-        if let Some(m) = scene.medium_in(&stack) {
+        if let Some(m) = stack.medium(scene) {
             let d = hit.map_or(ray.t_max, |h| h.t) * ray.dir.length();
             tr *= crate::medium::transmittance(m.coefficients(wl).sigma_t(), d);
             if tr == SampledSpectrum::ZERO {

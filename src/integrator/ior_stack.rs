@@ -91,6 +91,13 @@ impl IorStack {
         self.active_without(None)
     }
 
+    /// The participating medium a ray travels in: the active object's, or
+    /// the world's when the stack is empty.
+    #[inline]
+    pub fn medium<'s>(&self, scene: &'s crate::scene::Scene) -> Option<&'s crate::medium::Medium> {
+        scene.medium_inside(self.active().map(|e| e.material))
+    }
+
     fn active_without(&self, skip: Option<u32>) -> Option<Entry> {
         let mut skipped = false;
         let mut best: Option<Entry> = None;

@@ -16,8 +16,14 @@
 use super::interface::transmittance;
 use super::light_path::{self, Scatterer};
 use super::{lens_sample, PathCounters, PixelSample};
+use super::{Integrate, IntegratorSpec};
+use crate::camera::Camera;
 use crate::camera::CameraSample;
-use crate::film::FilmTile;
+use crate::drive::{
+    splats::{self, SplatEstimator},
+    RenderError, RenderJob, RenderOptions, RenderStats,
+};
+use crate::film::{Film, FilmSettings, FilmTile};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::sampler::Sampler;
@@ -43,9 +49,63 @@ impl Default for LightTracer {
 }
 
 impl LightTracer {
+    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+        let d = LightTracer::default();
+        Ok(LightTracer {
+            max_depth: spec.max_depth.unwrap_or(d.max_depth),
+            rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+        })
+    }
+}
+
+impl SplatEstimator for LightTracer {
+    fn name(&self) -> &'static str {
+        "light"
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        _: (u32, u32),
+        sampler: &mut Sampler,
+        tile: &mut FilmTile,
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        self.trace(scene, sampler, tile, counters)
+    }
+}
+
+impl Integrate for LightTracer {
+    fn check(
+        &self,
+        camera: &Camera,
+        film: &FilmSettings,
+        options: &RenderOptions,
+    ) -> Result<(), RenderError> {
+        splats::check("light", camera, film, options)
+    }
+
+    fn loop_memory(&self, _: &Scene, film: &FilmSettings, options: &RenderOptions) -> (u64, u64) {
+        splats::memory(self, film, options)
+    }
+
+    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
+        splats::render(job, self)
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+}
+
+impl LightTracer {
     /// Traces one light path and splats its connections to the camera
     /// into `tile`. Returns the (empty) measurement of the launching pixel.
-    pub fn sample(
+    pub fn trace(
         &self,
         scene: &Scene,
         sampler: &mut Sampler,
@@ -120,7 +180,7 @@ fn splat(
     l: SampledSpectrum,
     wl: &SampledWavelengths,
 ) {
-    let x = (cs.raster.x as u32).min(scene.film.width - 1);
-    let y = (cs.raster.y as u32).min(scene.film.height - 1);
+    let x = (cs.raster.x as u32).min(scene.camera.resolution().0 - 1);
+    let y = (cs.raster.y as u32).min(scene.camera.resolution().1 - 1);
     tile.add_splat(x, y, l, wl);
 }

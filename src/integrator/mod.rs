@@ -1,13 +1,8 @@
-//! Integrators: how a sample of a pixel becomes a radiance estimate. Each
-//! integrator is a variant of [`Integrator`] that owns its parameters
-//! (parsed from the scene's `[integrator]` table by [`Integrator::from_spec`]).
-//!
-//! The render driver asks for one sample of a pixel at a time
-//! ([`Integrator::sample`]). An integrator returns what that sample
-//! measures for its own pixel and may also *splat*: add contributions to any
-//! pixel of the film tile it is given (light tracing connects to the camera
-//! wherever a light path lands). The driver keeps both deterministic for
-//! any thread count.
+//! Integrators: how samples become an image. Each integrator is a type
+//! that owns its parameters (parsed from the scene's `[integrator]` table
+//! by its `from_spec`) and implements [`Integrate`]: it renders a whole
+//! job, with a loop of its own or a shared driver's (`crate::drive`). The
+//! list of integrators is one macro call, `integrators!`, below.
 
 pub mod aov;
 mod bdpt;
@@ -26,10 +21,14 @@ pub use light_tracer::LightTracer;
 pub use path::PathTracer;
 pub use sppm::{PhotonMap, Sppm};
 
-use crate::film::FilmTile;
+pub use crate::drive::{PathCounters, PixelSample};
+
+use crate::camera::Camera;
+use crate::drive::{RenderError, RenderJob, RenderOptions, RenderStats};
+use crate::film::{Film, FilmSettings};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::SampledSpectrum;
 
 /// How the path tracer finds direct light. All converge to the same image;
 /// `Mis` has the least noise.
@@ -123,79 +122,83 @@ impl IntegratorSpec {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum IntegratorKind {
+/// The list of integrators: each line a variant of [`Integrator`] and of
+/// [`IntegratorKind`], with the type that implements [`Integrate`] and
+/// the name scene files and the command line use. Everything that lists
+/// integrators (parsing, `--integrator`, the tests) comes from here.
+macro_rules! integrators {
+    ($($(#[doc = $doc:literal])* $variant:ident($ty:ty) = $name:literal,)*) => {
+        /// Which integrator: the `type` of the `[integrator]` table.
+        #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, clap::ValueEnum)]
+        pub enum IntegratorKind {
+            $($(#[doc = $doc])* #[serde(rename = $name)] #[value(name = $name)] $variant,)*
+        }
+
+        impl IntegratorKind {
+            /// Every integrator, in the list's order (the first is the default).
+            pub const ALL: &'static [IntegratorKind] = &[$(IntegratorKind::$variant,)*];
+
+            /// The name the scene file and the command line use.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(IntegratorKind::$variant => $name,)*
+                }
+            }
+        }
+
+        /// An integrator with its parameters.
+        #[derive(Clone, Debug, PartialEq)]
+        pub enum Integrator {
+            $($variant($ty),)*
+        }
+
+        impl Integrator {
+            /// From the scene file's `[integrator]` table; the error names the key.
+            pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+                if let Some((key, owner)) = spec.keys_of_others().first() {
+                    return Err(format!(
+                        "`integrator.{key}` applies to {owner}, not to `{}`",
+                        spec.kind.name()
+                    ));
+                }
+                Ok(match spec.kind {
+                    $(IntegratorKind::$variant => Integrator::$variant(<$ty>::from_spec(spec)?),)*
+                })
+            }
+
+            pub fn kind(&self) -> IntegratorKind {
+                match self {
+                    $(Integrator::$variant(_) => IntegratorKind::$variant,)*
+                }
+            }
+
+            /// What every integrator implements.
+            pub fn as_integrate(&self) -> &dyn Integrate {
+                match self {
+                    $(Integrator::$variant(i) => i,)*
+                }
+            }
+        }
+    };
+}
+
+integrators! {
     /// Paths from the camera with light sampling (the default).
-    #[default]
-    Path,
+    Path(PathTracer) = "path",
     /// Paths from the lights, connected to the camera (splats).
-    Light,
+    Light(LightTracer) = "light",
     /// Bidirectional: camera and light subpaths joined by every strategy,
     /// weighted by MIS (splats).
-    Bdpt,
+    Bdpt(Bdpt) = "bdpt",
     /// Stochastic progressive photon mapping: caustics, also seen through
     /// glass or in mirrors (consistent, not unbiased).
-    Sppm,
+    Sppm(Sppm) = "sppm",
 }
 
-impl IntegratorKind {
-    /// The name the scene file and the command line use.
-    pub fn name(self) -> &'static str {
-        match self {
-            IntegratorKind::Path => "path",
-            IntegratorKind::Light => "light",
-            IntegratorKind::Bdpt => "bdpt",
-            IntegratorKind::Sppm => "sppm",
-        }
+impl Default for IntegratorKind {
+    fn default() -> Self {
+        IntegratorKind::ALL[0]
     }
-}
-
-/// Counts kept per path, summed by the renderer.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PathCounters {
-    /// Closest-hit and shadow rays traced.
-    pub rays: u64,
-    /// Media that could not be entered because the IOR stack was full.
-    pub stack_overflows: u64,
-    /// Photons left on diffuse surfaces (photon mapping).
-    pub photons_stored: u64,
-}
-
-impl PathCounters {
-    pub fn add(&mut self, other: &PathCounters) {
-        self.rays += other.rays;
-        self.stack_overflows += other.stack_overflows;
-        self.photons_stored += other.photons_stored;
-    }
-}
-
-/// What one sample of a pixel measured, at its wavelengths.
-#[derive(Clone, Copy, Debug)]
-pub struct PixelSample {
-    pub l: SampledSpectrum,
-    pub wl: SampledWavelengths,
-}
-
-/// Every integrator. Adding one: a module with its type (parameters as
-/// fields, a `sample` method), and here a variant, an `IntegratorKind`, and
-/// its arms in `from_spec`, `name`, `splats` and `sample` (and `prepare`
-/// if it shares work between the pixels' samples of one index).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Integrator {
-    Path(PathTracer),
-    Light(LightTracer),
-    Bdpt(Bdpt),
-    Sppm(Sppm),
-}
-
-/// What an integrator computes once per sample index, before any pixel's
-/// sample of that index: the photons of an iteration of photon mapping.
-#[derive(Debug, Default)]
-pub enum Prepared {
-    #[default]
-    Nothing,
-    Photons(PhotonMap),
 }
 
 impl Default for Integrator {
@@ -204,166 +207,48 @@ impl Default for Integrator {
     }
 }
 
-impl Integrator {
-    /// From the scene file's `[integrator]` table; the error names the key.
-    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
-        if let Some((key, owner)) = spec.keys_of_others().first() {
-            return Err(format!(
-                "`integrator.{key}` applies to {owner}, not to `{}`",
-                spec.kind.name()
-            ));
-        }
-        let depth = |default: u32| spec.max_depth.unwrap_or(default);
-        let rr = |default: u32| spec.rr_depth.unwrap_or(default);
-        Ok(match spec.kind {
-            IntegratorKind::Path => {
-                let d = PathTracer::default();
-                let split = spec.split.unwrap_or(d.split);
-                if !(1..=MAX_SPLIT).contains(&split) {
-                    return Err(format!(
-                        "`integrator.split` must be between 1 and {MAX_SPLIT}, not {split}"
-                    ));
-                }
-                Integrator::Path(PathTracer {
-                    max_depth: depth(d.max_depth),
-                    rr_depth: rr(d.rr_depth),
-                    strategy: spec.strategy.unwrap_or(d.strategy),
-                    split,
-                })
-            }
-            IntegratorKind::Light => {
-                let d = LightTracer::default();
-                Integrator::Light(LightTracer {
-                    max_depth: depth(d.max_depth),
-                    rr_depth: rr(d.rr_depth),
-                })
-            }
-            IntegratorKind::Bdpt => {
-                let d = Bdpt::default();
-                Integrator::Bdpt(Bdpt {
-                    max_depth: depth(d.max_depth),
-                    rr_depth: rr(d.rr_depth),
-                })
-            }
-            IntegratorKind::Sppm => {
-                let d = Sppm::default();
-                let positive = |key: &str, v: Option<f32>| match v {
-                    Some(v) if !(v > 0.0 && v.is_finite()) => Err(format!(
-                        "`integrator.{key}` must be a positive number, not {v}"
-                    )),
-                    _ => Ok(v),
-                };
-                let alpha = spec.alpha.unwrap_or(d.alpha);
-                if !(alpha > 0.0 && alpha <= 1.0) {
-                    return Err(format!(
-                        "`integrator.alpha` must lie in (0, 1], not {alpha}"
-                    ));
-                }
-                if spec.photons == Some(0) {
-                    return Err("`integrator.photons` must be at least 1".into());
-                }
-                Integrator::Sppm(Sppm::new(
-                    depth(d.max_depth),
-                    rr(d.rr_depth),
-                    spec.photons,
-                    positive("radius", spec.radius)?,
-                    alpha,
-                    positive("spectral_radius", spec.spectral_radius)?.unwrap_or(d.spectral_radius),
-                ))
-            }
-        })
-    }
+/// What an integrator must fill in, whole: the compiler refuses one that
+/// leaves a method out. An integrator renders a whole job with a loop of
+/// its own, or hands it to a shared driver (`drive::pixels` for samples
+/// that measure their own pixel, `drive::splats` for paths that add light
+/// to any pixel).
+pub trait Integrate: Sync {
+    /// Refuses a camera or options its loop cannot honour, before anything
+    /// is allocated (a region, an error target, adaptive sampling).
+    fn check(
+        &self,
+        camera: &Camera,
+        film: &FilmSettings,
+        options: &RenderOptions,
+    ) -> Result<(), RenderError>;
 
+    /// Bytes its loop holds beyond the film's sums: planes of the film
+    /// (adaptive counts, error images), and what it holds while rendering
+    /// (tiles in flight, photon maps). For the memory estimate.
+    fn loop_memory(
+        &self,
+        scene: &Scene,
+        film: &FilmSettings,
+        options: &RenderOptions,
+    ) -> (u64, u64);
+
+    /// Renders the job: every sample the options ask for, or fewer where
+    /// a stop condition ends it after a pass.
+    fn render(&self, job: RenderJob) -> (Film, RenderStats);
+
+    /// The longest path it traces, in surface interactions.
+    fn max_depth(&self) -> u32;
+}
+
+impl Integrator {
     /// The name the scene file and the command line use.
     pub fn name(&self) -> &'static str {
-        match self {
-            Integrator::Path(_) => "path",
-            Integrator::Light(_) => "light",
-            Integrator::Bdpt(_) => "bdpt",
-            Integrator::Sppm(_) => "sppm",
-        }
+        self.kind().name()
     }
 
     /// The longest path it traces, in surface interactions.
     pub fn max_depth(&self) -> u32 {
-        match self {
-            Integrator::Path(p) => p.max_depth,
-            Integrator::Light(l) => l.max_depth,
-            Integrator::Bdpt(b) => b.max_depth,
-            Integrator::Sppm(p) => p.max_depth,
-        }
-    }
-
-    /// Bytes of what `prepare` makes for one sample index, estimated: the
-    /// photon map of an iteration.
-    pub fn prepared_bytes(&self, scene: &Scene) -> u64 {
-        match self {
-            Integrator::Sppm(p) => p.map_bytes(scene),
-            _ => 0,
-        }
-    }
-
-    /// Whether `sample` adds to pixels other than its own. Such renders
-    /// must cover the whole film with the same number of samples per pixel.
-    pub fn splats(&self) -> bool {
-        match self {
-            Integrator::Path(_) | Integrator::Sppm(_) => false,
-            Integrator::Light(_) | Integrator::Bdpt(_) => true,
-        }
-    }
-
-    /// Whether each sample index needs `prepare` first: such renders go
-    /// one sample index at a time.
-    pub fn prepares(&self) -> bool {
-        matches!(self, Integrator::Sppm(_))
-    }
-
-    /// The work shared by every pixel's sample `index`.
-    pub fn prepare(&self, scene: &Scene, seed: u64, index: u32) -> (Prepared, PathCounters) {
-        match self {
-            Integrator::Sppm(p) => {
-                let (map, counters) = p.photon_map(scene, seed, index);
-                (Prepared::Photons(map), counters)
-            }
-            _ => (Prepared::Nothing, PathCounters::default()),
-        }
-    }
-
-    /// Sample `sampler` of pixel (x, y): what it measures there; splats go
-    /// to `tile`. `prepared` is what `prepare` made for this sample index.
-    #[allow(clippy::too_many_arguments)]
-    pub fn sample(
-        &self,
-        scene: &Scene,
-        x: u32,
-        y: u32,
-        sampler: &mut Sampler,
-        prepared: &Prepared,
-        tile: &mut FilmTile,
-        counters: &mut PathCounters,
-    ) -> PixelSample {
-        match self {
-            Integrator::Path(p) => {
-                let [dx, dy, u_lambda, _] = sampler.next_4d();
-                let mut wl = scene.wavelengths.sample(u_lambda);
-                let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
-                let l = p.radiance(scene, ray, &mut wl, sampler, counters);
-                PixelSample { l, wl }
-            }
-            Integrator::Light(t) => t.sample(scene, sampler, tile, counters),
-            Integrator::Bdpt(b) => b.sample(scene, x, y, sampler, tile, counters),
-            Integrator::Sppm(p) => {
-                let empty;
-                let map = match prepared {
-                    Prepared::Photons(map) => map,
-                    Prepared::Nothing => {
-                        empty = PhotonMap::default();
-                        &empty
-                    }
-                };
-                p.sample(scene, x, y, sampler, map, counters)
-            }
-        }
+        self.as_integrate().max_depth()
     }
 }
 

@@ -6,7 +6,14 @@
 use super::interface::{bsdf_at, scatter, stack_towards, trace, transmittance, Next};
 use super::ior_stack::{Entry, IorStack};
 use super::volume::Flight;
+use super::{camera_ray, Integrate, IntegratorSpec, PixelSample, MAX_SPLIT};
 use super::{power_heuristic, PathCounters, Strategy};
+use crate::camera::Camera;
+use crate::drive::{
+    pixels::{self, PixelEstimator},
+    RenderError, RenderJob, RenderOptions, RenderStats,
+};
+use crate::film::{Film, FilmSettings};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
@@ -92,6 +99,83 @@ impl PathState {
             stack: IorStack::default(),
             eta_scale: 1.0,
         }
+    }
+}
+
+impl PathTracer {
+    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+        let d = PathTracer::default();
+        let split = spec.split.unwrap_or(d.split);
+        if !(1..=MAX_SPLIT).contains(&split) {
+            return Err(format!(
+                "`integrator.split` must be between 1 and {MAX_SPLIT}, not {split}"
+            ));
+        }
+        Ok(PathTracer {
+            max_depth: spec.max_depth.unwrap_or(d.max_depth),
+            rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+            strategy: spec.strategy.unwrap_or(d.strategy),
+            split,
+        })
+    }
+}
+
+impl PixelEstimator for PathTracer {
+    type Shared = ();
+
+    fn prepares(&self) -> bool {
+        false
+    }
+
+    fn prepare(&self, _: &Scene, _: u64, _: u32) -> ((), PathCounters) {
+        ((), PathCounters::default())
+    }
+
+    fn shared_bytes(&self, _: &Scene) -> u64 {
+        0
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        (x, y): (u32, u32),
+        sampler: &mut Sampler,
+        _: &(),
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        let [dx, dy, u_lambda, _] = sampler.next_4d();
+        let mut wl = scene.wavelengths.sample(u_lambda);
+        let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
+        let l = self.radiance(scene, ray, &mut wl, sampler, counters);
+        PixelSample { l, wl }
+    }
+}
+
+impl Integrate for PathTracer {
+    fn check(
+        &self,
+        _: &Camera,
+        _: &FilmSettings,
+        options: &RenderOptions,
+    ) -> Result<(), RenderError> {
+        pixels::check(options)
+    }
+
+    fn loop_memory(
+        &self,
+        scene: &Scene,
+        film: &FilmSettings,
+        options: &RenderOptions,
+    ) -> (u64, u64) {
+        pixels::memory(self, scene, film, options)
+    }
+
+    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
+        pixels::render(job, self)
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
     }
 }
 

@@ -36,6 +36,13 @@ use rayon::prelude::*;
 use super::light_path::{self, Scatterer};
 use super::path::{PathTracer, Stop};
 use super::{camera_ray, PathCounters, PixelSample, Strategy};
+use super::{Integrate, IntegratorSpec};
+use crate::camera::Camera;
+use crate::drive::{
+    pixels::{self, PixelEstimator},
+    RenderError, RenderJob, RenderOptions, RenderStats,
+};
+use crate::film::{Film, FilmSettings};
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -80,6 +87,90 @@ impl Sppm {
             spectral_radius,
             stored_per_photon: OnceLock::new(),
         }
+    }
+}
+
+impl Sppm {
+    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+        let d = Sppm::default();
+        let positive = |key: &str, v: Option<f32>| match v {
+            Some(v) if !(v > 0.0 && v.is_finite()) => Err(format!(
+                "`integrator.{key}` must be a positive number, not {v}"
+            )),
+            _ => Ok(v),
+        };
+        let alpha = spec.alpha.unwrap_or(d.alpha);
+        if !(alpha > 0.0 && alpha <= 1.0) {
+            return Err(format!(
+                "`integrator.alpha` must lie in (0, 1], not {alpha}"
+            ));
+        }
+        if spec.photons == Some(0) {
+            return Err("`integrator.photons` must be at least 1".into());
+        }
+        Ok(Sppm::new(
+            spec.max_depth.unwrap_or(d.max_depth),
+            spec.rr_depth.unwrap_or(d.rr_depth),
+            spec.photons,
+            positive("radius", spec.radius)?,
+            alpha,
+            positive("spectral_radius", spec.spectral_radius)?.unwrap_or(d.spectral_radius),
+        ))
+    }
+}
+
+impl PixelEstimator for Sppm {
+    type Shared = PhotonMap;
+
+    fn prepares(&self) -> bool {
+        true
+    }
+
+    fn prepare(&self, scene: &Scene, seed: u64, index: u32) -> (PhotonMap, PathCounters) {
+        self.photon_map(scene, seed, index)
+    }
+
+    fn shared_bytes(&self, scene: &Scene) -> u64 {
+        self.map_bytes(scene)
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        (x, y): (u32, u32),
+        sampler: &mut Sampler,
+        map: &PhotonMap,
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        self.trace(scene, x, y, sampler, map, counters)
+    }
+}
+
+impl Integrate for Sppm {
+    fn check(
+        &self,
+        _: &Camera,
+        _: &FilmSettings,
+        options: &RenderOptions,
+    ) -> Result<(), RenderError> {
+        pixels::check(options)
+    }
+
+    fn loop_memory(
+        &self,
+        scene: &Scene,
+        film: &FilmSettings,
+        options: &RenderOptions,
+    ) -> (u64, u64) {
+        pixels::memory(self, scene, film, options)
+    }
+
+    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
+        pixels::render(job, self)
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
     }
 }
 
@@ -214,7 +305,8 @@ impl Sppm {
     /// is stored per pixel in an iteration, within [2¹⁴, 2²²].
     pub fn photons_per_iteration(&self, scene: &Scene) -> u32 {
         self.photons.unwrap_or_else(|| {
-            let pixels = (scene.film.width as f64) * (scene.film.height as f64);
+            let (w, h) = scene.camera.resolution();
+            let pixels = (w as f64) * (h as f64);
             let per_photon = self.stored_per_photon(scene).max(1e-4);
             (pixels / per_photon).clamp((1u32 << 14) as f64, (1u32 << 22) as f64) as u32
         })
@@ -355,7 +447,7 @@ impl Sppm {
     }
 
     /// One sample of pixel (x, y) in the iteration of `map`.
-    pub fn sample(
+    pub fn trace(
         &self,
         scene: &Scene,
         x: u32,

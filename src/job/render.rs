@@ -18,10 +18,10 @@ use crate::film::{output, spectral_exr};
 use crate::film::{ColourTransform, Film, FilmSettings};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
+use crate::load::{self, Overrides};
 use crate::memory::for_people;
 use crate::merge::{ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
-use crate::render::{memory_estimate, render, PassHook, RenderOptions, Stop};
-use crate::scene::{self, Overrides};
+use crate::render::{memory_estimate, render, PassHook, Stop};
 
 pub struct RenderJob {
     pub scene: PathBuf,
@@ -105,11 +105,12 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         bail!("--samples and --tile write a partial spectral EXR for `prism merge`: drop --no-spectral");
     }
     let load_start = Instant::now();
-    let scene = scene::load_with(&job.scene, &job.overrides)?;
-    for w in &scene.warnings {
+    let loaded = load::load_with(&job.scene, &job.overrides)?;
+    for w in &loaded.report.warnings {
         eprintln!("warning: {w}");
     }
-    let film = &scene.film;
+    let (scene, settings) = (&loaded.scene, &loaded.settings);
+    let film = &settings.film;
     if let Some(t) = job.tile {
         if t[2] > film.width || t[3] > film.height {
             bail!(
@@ -123,7 +124,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             );
         }
     }
-    let mut options = RenderOptions::new(&scene);
+    let mut options = settings.options();
     if let Some(spp) = job.spp {
         options.samples = 0..spp;
     }
@@ -149,7 +150,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         }
     }
 
-    let estimate = memory_estimate(&scene, &options);
+    let estimate = memory_estimate(scene, settings, &options, loaded.report.peak_bytes);
     let parts = format!(
         "loading {}; then scene {}, film {}, passes {}, writing {}",
         for_people(estimate.loading),
@@ -178,11 +179,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
     let mut hooks: Vec<PassHook> = Vec::new();
     if let Some(every) = job.preview_every {
-        hooks.push(preview_writer(
-            suffixed(&stem, "png"),
-            scene.film.clone(),
-            every,
-        ));
+        hooks.push(preview_writer(suffixed(&stem, "png"), film.clone(), every));
     }
     if let Some(address) = &job.display {
         let name = stem
@@ -212,21 +209,21 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         scene.lights.len(),
         film.width,
         film.height,
-        scene.integrator.name()
+        settings.integrator.name()
     );
     eprintln!(
         "memory: about {} at the peak ({parts})",
         for_people(estimate.total())
     );
-    if let Integrator::Sppm(p) = &scene.integrator {
+    if let Integrator::Sppm(p) = &settings.integrator {
         eprintln!(
             "photon mapping: {} photons per iteration, radius {:.4} (scene units) in the first",
-            p.photons_per_iteration(&scene),
-            p.initial_radius(&scene)
+            p.photons_per_iteration(scene),
+            p.initial_radius(scene)
         );
     }
 
-    let (result, stats) = render(&scene, &options)?;
+    let (result, stats) = render(scene, settings, &options)?;
     let secs = stats.elapsed.as_secs_f64();
     eprintln!(
         "rendered {} samples ({}) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
@@ -309,11 +306,11 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
                 ("prismScene", job.scene.display().to_string()),
                 // The scene file and every file it loads: a part rendered
                 // after a mesh or a spectrum changed is of another scene.
-                (ATTR_SCENE_HASH, scene.content_hash()),
+                (ATTR_SCENE_HASH, loaded.report.content_hash()),
                 (ATTR_SEED, options.seed.to_string()),
                 (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
                 (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
-                ("prismIntegrator", scene.integrator.name().to_string()),
+                ("prismIntegrator", settings.integrator.name().to_string()),
                 ("prismObserver", film.observer.name().to_string()),
                 // How `prism merge` makes the PNG from the R, G, B channels.
                 (ATTR_DISPLAY, film.display.name().to_string()),

@@ -1,24 +1,19 @@
-//! The scene: its file format, the loaders, and the immutable runtime scene
-//! (triangles in BVH order, materials, lights, camera) that rendering reads.
+//! The scene: the immutable runtime scene (triangles in BVH order,
+//! materials, lights, media, camera) that rendering reads. How it is
+//! rendered (integrator, film) is not part of it: `crate::load` returns
+//! those apart, so one scene renders under any settings.
 
-pub mod format;
-pub mod import;
-mod load;
 pub mod mesh;
-pub mod spectrum_spec;
 
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
-pub use load::{load, load_str, load_with, Overrides, SceneError};
 pub use mesh::Mesh;
 
 use crate::camera::Camera;
-use crate::film::FilmSettings;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
-use crate::integrator::Integrator;
 use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
 use crate::material::{Cutout, Material};
 use crate::medium::Medium;
@@ -87,8 +82,6 @@ pub struct SurfaceHit {
 
 pub struct Scene {
     pub camera: Camera,
-    pub film: FilmSettings,
-    pub integrator: Integrator,
     pub materials: Vec<Material>,
     pub lights: LightSet,
     /// The density paths draw their wavelengths from.
@@ -112,16 +105,8 @@ pub struct Scene {
     attributes: VertexAttributes,
     /// Triangles dropped at build because they had no area.
     pub degenerate_triangles: usize,
-    /// Problems found while loading that did not stop it (printed by the CLI).
-    pub warnings: Vec<String>,
-    /// Every file the scene was loaded from (the scene file first), with a
-    /// hash of its bytes: what a partial render must share to be merged.
-    pub inputs: Vec<(std::path::PathBuf, u64)>,
     /// Bytes held by decoded images (textures, environment maps).
     pub image_bytes: u64,
-    /// Bytes held at the peak of loading (estimated: images, meshes and
-    /// the BVH build).
-    pub load_peak_bytes: u64,
 }
 
 /// The wavelengths paths draw: a mixture of the visible density (so every
@@ -176,8 +161,6 @@ impl Scene {
     /// the other lights (which learn the scene's bounds).
     pub fn build(
         camera: Camera,
-        film: FilmSettings,
-        integrator: Integrator,
         materials: Vec<Material>,
         shapes: Vec<ShapeInstance>,
         other_lights: Vec<Light>,
@@ -278,8 +261,6 @@ impl Scene {
         Scene {
             wavelengths: wavelength_distribution(&lights),
             camera,
-            film,
-            integrator,
             has_dielectrics: materials.iter().any(|m| m.bounds_volume()),
             has_media: materials.iter().any(|m| m.medium().is_some()),
             has_scattering: materials
@@ -295,10 +276,7 @@ impl Scene {
             shading,
             attributes,
             degenerate_triangles: degenerate,
-            warnings: Vec::new(),
-            inputs: Vec::new(),
             image_bytes: 0,
-            load_peak_bytes: 0,
         }
     }
 
@@ -315,20 +293,7 @@ impl Scene {
             + self.image_bytes
     }
 
-    /// Whether any material is a dielectric.
-    /// Identifies what the scene was loaded from: the scene file and every
-    /// file it read (meshes, materials, textures, buffers, spectra, maps),
-    /// by content. Partial renders must share it to be merged; the bench
-    /// keys its cached references by it.
-    pub fn content_hash(&self) -> String {
-        let bytes: Vec<u8> = self
-            .inputs
-            .iter()
-            .flat_map(|(_, hash)| hash.to_le_bytes())
-            .collect();
-        crate::merge::scene_hash(&bytes)
-    }
-
+    /// Whether any material bounds a volume (a dielectric).
     pub fn has_dielectrics(&self) -> bool {
         self.has_dielectrics
     }
@@ -377,12 +342,12 @@ impl Scene {
         self.has_scattering
     }
 
-    /// The medium a ray is in: that of the stack's active object, or the
-    /// world's when the stack is empty.
+    /// The medium inside `material`'s volume, or the world's for None
+    /// (a path outside every volume).
     #[inline]
-    pub fn medium_in(&self, stack: &crate::integrator::ior_stack::IorStack) -> Option<&Medium> {
-        match stack.active() {
-            Some(e) => self.materials[e.material as usize].medium(),
+    pub fn medium_inside(&self, material: Option<u32>) -> Option<&Medium> {
+        match material {
+            Some(m) => self.materials[m as usize].medium(),
             None => self.world_medium.as_ref(),
         }
     }

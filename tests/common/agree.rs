@@ -4,26 +4,26 @@
 //! and the scenes the comparisons use.
 
 use prism::film::Film;
+use prism::load::Loaded;
 use prism::render::{render, RenderOptions};
-use prism::scene::Scene;
 
 /// `runs` renders with seeds 1..=runs: per 8 × 8 block, the mean luminance
 /// over the runs and the variance of that mean (from the runs' spread:
 /// splats make per-pixel variances meaningless).
-pub fn block_estimates(scene: &Scene, spp: u32, runs: u64) -> Vec<(f64, f64)> {
+pub fn block_estimates(loaded: &Loaded, spp: u32, runs: u64) -> Vec<(f64, f64)> {
     let films: Vec<Film> = (1..=runs)
         .map(|seed| {
             let options = RenderOptions {
                 seed,
                 threads: Some(2),
-                ..RenderOptions::with_spp(scene, spp)
+                ..RenderOptions::with_spp(&loaded.settings.film, spp)
             };
-            let (film, stats) = render(scene, &options).unwrap();
+            let (film, stats) = render(&loaded.scene, &loaded.settings, &options).unwrap();
             assert_eq!(stats.non_finite, 0);
             film
         })
         .collect();
-    let (w, h) = (scene.film.width, scene.film.height);
+    let (w, h) = (loaded.settings.film.width, loaded.settings.film.height);
     let mut out = Vec::new();
     for y0 in (0..h).step_by(8) {
         for x0 in (0..w).step_by(8) {
@@ -43,7 +43,7 @@ pub fn block_estimates(scene: &Scene, spp: u32, runs: u64) -> Vec<(f64, f64)> {
 /// The same scene for both integrators, 16 independent runs each; every
 /// block within 5σ. (With 15 degrees of freedom per variance, |t| > 5 has
 /// probability 1.6e-4 per block.)
-pub fn assert_scenes_agree(path: &Scene, other: &Scene, what: &str) {
+pub fn assert_scenes_agree(path: &Loaded, other: &Loaded, what: &str) {
     let a = block_estimates(path, 16, 16);
     let b = block_estimates(other, 16, 16);
     let mut worst = 0.0f64;
@@ -177,7 +177,7 @@ pub fn assert_tilted_floor_agrees(kind: &str) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("floor.obj"), tilted_floor_obj()).unwrap();
     let load = |kind: &str| {
-        prism::scene::load_str(
+        prism::load::load_str(
             &format!("{TILTED_FLOOR}\n[integrator]\ntype = \"{kind}\"\n"),
             dir.path(),
         )

@@ -7,6 +7,7 @@
 //! ρE/π. `max_depth` leaves out every longer path the tests look at.
 
 use glam::DVec3;
+use prism::load::Loaded;
 use prism::scene::Scene;
 
 pub const RHO: f64 = 0.5;
@@ -34,7 +35,7 @@ pub fn conductor_reflectance(cos: f64, eta: f64, k: f64) -> f64 {
 }
 
 /// The scene for integrator `kind` (with `extra` integrator keys).
-pub fn scene(kind: &str, extra: &str, vertical_mirror: bool, max_depth: u32) -> Scene {
+pub fn scene(kind: &str, extra: &str, vertical_mirror: bool, max_depth: u32) -> Loaded {
     let vertical = if vertical_mirror {
         "[[shape]]\ntype = \"quad\"\nvertices = [[-8, 0, 2], [-8, 1.9, 2], [8, 1.9, 2], [8, 0, 2]]\nmaterial = \"mirror\"\n"
     } else {
@@ -130,7 +131,7 @@ pub fn expected_pixels(
     via_mirror: bool,
     radius: f64,
 ) -> Vec<Option<f64>> {
-    let (w, h) = (scene.film.width, scene.film.height);
+    let (w, h) = scene.camera.resolution();
     let mut out = Vec::new();
     for y in 0..h {
         for x in 0..w {

@@ -11,18 +11,19 @@ use std::path::Path;
 use prism::film::Film;
 use prism::geometry::Ray;
 use prism::integrator::{Integrator, PathCounters};
+use prism::load::{load_str, Loaded};
 use prism::render::{render, RenderOptions};
 use prism::sampler::Sampler;
-use prism::scene::{load_str, Scene};
+
 use prism::spectrum::{SampledSpectrum, SampledWavelengths};
 
-pub fn scene(text: &str) -> Scene {
+pub fn scene(text: &str) -> Loaded {
     load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// A scene file of the repository with its [film] and [integrator] entries
 /// replaced by `film` and `integrator` (TOML tables as text).
-pub fn repo_scene(relative: &str, film: &str, integrator: &str) -> Scene {
+pub fn repo_scene(relative: &str, film: &str, integrator: &str) -> Loaded {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(relative);
     let text = std::fs::read_to_string(&path).unwrap();
     let mut table: toml::Table = toml::from_str(&text).unwrap();
@@ -43,7 +44,13 @@ pub fn repo_scene(relative: &str, film: &str, integrator: &str) -> Scene {
 /// the camera inside, 8 × 8 pixels at `spp`; `integrator` adds lines to the
 /// `[integrator]` table (unbounded depth), `extra` adds TOML (materials,
 /// shapes, a medium).
-pub fn furnace_scene(albedo: f64, emission: f64, spp: u32, integrator: &str, extra: &str) -> Scene {
+pub fn furnace_scene(
+    albedo: f64,
+    emission: f64,
+    spp: u32,
+    integrator: &str,
+    extra: &str,
+) -> Loaded {
     scene(&format!(
         r#"
         [camera]
@@ -77,12 +84,13 @@ pub fn furnace_scene(albedo: f64, emission: f64, spp: u32, integrator: &str, ext
     ))
 }
 
-pub fn render_film(scene: &Scene, threads: usize) -> Film {
+pub fn render_film(loaded: &Loaded, threads: usize) -> Film {
     let (film, stats) = render(
-        scene,
+        &loaded.scene,
+        &loaded.settings,
         &RenderOptions {
             threads: Some(threads),
-            ..RenderOptions::new(scene)
+            ..loaded.settings.options()
         },
     )
     .unwrap();
@@ -93,12 +101,13 @@ pub fn render_film(scene: &Scene, threads: usize) -> Film {
 
 /// Radiance along one ray by the scene's path tracer.
 pub fn path_radiance(
-    scene: &Scene,
+    loaded: &Loaded,
     ray: Ray,
     wl: &mut SampledWavelengths,
     sampler: &mut Sampler,
 ) -> SampledSpectrum {
-    match &scene.integrator {
+    let scene = &loaded.scene;
+    match &loaded.settings.integrator {
         Integrator::Path(p) => p.radiance(scene, ray, wl, sampler, &mut PathCounters::default()),
         other => panic!("a path-traced scene, not {}", other.name()),
     }
@@ -106,7 +115,7 @@ pub fn path_radiance(
 
 /// Mean luminance of a floor (or any surface) at `target`, seen from a
 /// little above it by the scene's path tracer, and its standard error.
-pub fn floor_luminance(s: &Scene, target: glam::Vec3) -> (f64, f64) {
+pub fn floor_luminance(s: &Loaded, target: glam::Vec3) -> (f64, f64) {
     let origin = target + glam::Vec3::new(0.3, 2.0, -0.4);
     let n = 4000u64;
     let (mut sum, mut sq) = (0.0, 0.0);

@@ -5,8 +5,8 @@ use gltf::mesh::Mode;
 
 use super::validate::{check_accessor, check_index_accessor, check_layout};
 use super::{Context, MAX_NODE_DEPTH};
+use crate::load::import::{generate_tangents, Asset, AssetCamera, Piece};
 use crate::material::Material;
-use crate::scene::import::{generate_tangents, Asset, AssetCamera, Piece};
 use crate::scene::Mesh;
 
 impl Context<'_> {

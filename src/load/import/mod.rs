@@ -14,9 +14,9 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::mesh::Mesh;
-use super::Emission;
 use crate::material::{Cutout, Material};
+use crate::scene::mesh::Mesh;
+use crate::scene::Emission;
 use crate::texture::{Encoding, Filter, Texture, Wrap};
 
 /// Everything taken from one asset file.

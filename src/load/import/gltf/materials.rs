@@ -6,12 +6,12 @@ use gltf::texture::{MagFilter, WrappingMode};
 
 use super::buffers::{percent_decode, read_uri};
 use super::Context;
+use crate::load::import::AssetMaterial;
 use crate::material::{
     ClearcoatLayer, Cutout, CutoutMode, Ior, IridescenceLayer, Material, NormalMap, OpaqueTexels,
     PbrLayers, PbrMaterial, Reflectance, SheenLayer, SpecularLayer,
 };
 use crate::medium::Medium;
-use crate::scene::import::AssetMaterial;
 use crate::scene::Emission;
 use crate::spectrum::Spectrum;
 use crate::texture::{Encoding, Filter, TextureRef, Wrap};

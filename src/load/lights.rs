@@ -12,8 +12,8 @@ use crate::light::{
     band_wavelength, Cone, DirectionalLight, EnvironmentMap, Light, PointLight, Sky, SkyModel, Sun,
     UniformEnvironment, SKY_BANDS, SUN_DIAMETER_DEGREES,
 };
-use crate::scene::format::{EnvironmentSpec, LightKind, LightSpec, SceneFile, SkySpec};
-use crate::scene::SceneError;
+use crate::load::format::{EnvironmentSpec, LightKind, LightSpec, SceneFile, SkySpec};
+use crate::load::SceneError;
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 impl Loader {

@@ -1,27 +1,33 @@
-//! Scene file → runtime [`Scene`]: parse, apply the command line's
+//! Scene file → the runtime [`Scene`], the [`RenderSettings`] the file
+//! asks for, and a [`LoadReport`]: parse, apply the command line's
 //! overrides, validate, resolve names, spectra and files. Every failure
-//! names the file and the key at fault. One submodule per part of the file.
+//! names the file and the key at fault. One submodule per part of the file;
+//! `format` is the file's schema, `import` reads OBJ and glTF assets.
 
 mod camera;
 mod film;
+pub mod format;
+pub mod import;
 mod lights;
 mod materials;
 mod media;
 mod shapes;
 mod spectra;
+pub mod spectrum_spec;
 
 use std::cell::{Cell, RefCell};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
-use super::format::SceneFile;
-use super::import::{Asset, TextureCache};
-use super::Scene;
 use crate::film::{Gamut, Tonemap};
 use crate::integrator::{IntegratorKind, Strategy};
 use crate::material::{Cutout, Material};
+use crate::render::{RenderOptions, RenderSettings};
+use crate::scene::Scene;
 use crate::spectrum::Spectrum;
+use format::SceneFile;
+use import::{Asset, TextureCache};
 
 /// The largest vertex coordinate a scene may hold (see `Loader::place`).
 const MAX_COORDINATE: f32 = 1e12;
@@ -95,13 +101,49 @@ impl Overrides {
     }
 }
 
+/// A loaded scene file: the scene, how the file asks for it to be
+/// rendered, and what loading found.
+pub struct Loaded {
+    pub scene: Scene,
+    pub settings: RenderSettings,
+    pub report: LoadReport,
+}
+
+/// What loading found beside the scene.
+#[derive(Clone, Debug, Default)]
+pub struct LoadReport {
+    /// Problems that did not stop the load (printed by the command line).
+    pub warnings: Vec<String>,
+    /// Every file the scene was loaded from (the scene file first), with a
+    /// hash of its bytes: what a partial render must share to be merged.
+    pub inputs: Vec<(PathBuf, u64)>,
+    /// Bytes held at the peak of loading (estimated: images, meshes and
+    /// the BVH build).
+    pub peak_bytes: u64,
+}
+
+impl LoadReport {
+    /// Identifies what the scene was loaded from: the scene file and every
+    /// file it read (meshes, materials, textures, buffers, spectra, maps),
+    /// by content. Partial renders must share it to be merged; the bench
+    /// keys its cached references by it.
+    pub fn content_hash(&self) -> String {
+        let bytes: Vec<u8> = self
+            .inputs
+            .iter()
+            .flat_map(|(_, hash)| hash.to_le_bytes())
+            .collect();
+        crate::merge::scene_hash(&bytes)
+    }
+}
+
 /// Loads a scene file; relative paths in it are relative to its folder.
-pub fn load(path: &Path) -> Result<Scene, SceneError> {
+pub fn load(path: &Path) -> Result<Loaded, SceneError> {
     load_with(path, &Overrides::default())
 }
 
 /// Loads a scene file with some of its values replaced.
-pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
+pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Loaded, SceneError> {
     let err = |message: String| SceneError {
         file: path.to_path_buf(),
         message,
@@ -115,13 +157,13 @@ pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError
         let base = path.parent().unwrap_or(Path::new("."));
         Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides)
     });
-    let mut scene = scene?;
-    scene.inputs = inputs;
-    Ok(scene)
+    let mut loaded = scene?;
+    loaded.report.inputs = inputs;
+    Ok(loaded)
 }
 
 /// Loads a scene from TOML text; `base` is the folder relative paths start from.
-pub fn load_str(text: &str, base: &Path) -> Result<Scene, SceneError> {
+pub fn load_str(text: &str, base: &Path) -> Result<Loaded, SceneError> {
     Loader::new(PathBuf::from("<scene>"), base.to_path_buf()).load(text, &Overrides::default())
 }
 
@@ -198,14 +240,14 @@ impl Loader {
 
     /// Loads the scene, tallying what its inputs hold against the memory
     /// budget; the scene keeps the bytes of its images.
-    fn load(&self, text: &str, overrides: &Overrides) -> Result<Scene, SceneError> {
-        let (scene, held) = crate::memory::tallying(None, || self.load_scene(text, overrides));
-        let mut scene = scene?;
-        scene.image_bytes = held.saturating_sub(self.meshes_held.get());
-        Ok(scene)
+    fn load(&self, text: &str, overrides: &Overrides) -> Result<Loaded, SceneError> {
+        let (loaded, held) = crate::memory::tallying(None, || self.load_scene(text, overrides));
+        let mut loaded = loaded?;
+        loaded.scene.image_bytes = held.saturating_sub(self.meshes_held.get());
+        Ok(loaded)
     }
 
-    fn load_scene(&self, text: &str, overrides: &Overrides) -> Result<Scene, SceneError> {
+    fn load_scene(&self, text: &str, overrides: &Overrides) -> Result<Loaded, SceneError> {
         let value: toml::Table =
             toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
         if let Some(key) = first_non_finite(&toml::Value::Table(value), "") {
@@ -231,12 +273,12 @@ impl Loader {
         let film = self.film(&file)?;
         let integrator = self.integrator(&mut file)?;
         let camera = self.camera(&file, &film)?;
-        if integrator.splats() && !camera.connectible() {
-            return Err(self.error(format!(
-                "the {} integrator connects light paths to the camera, which an orthographic camera's parallel rays cannot receive: use `path` or `sppm`",
-                integrator.name()
-            )));
-        }
+        // What the integrator's loop cannot do with this camera and film
+        // is refused now, naming the file, rather than when rendering.
+        integrator
+            .as_integrate()
+            .check(&camera, &film, &RenderOptions::new(&film))
+            .map_err(|e| self.error(e.to_string()))?;
 
         let mut material_index = BTreeMap::new();
         let mut materials = Vec::new();
@@ -268,7 +310,7 @@ impl Loader {
         )
         .map_err(|e| self.error(e))?;
         let load_peak = crate::memory::held() + build;
-        let mut scene = Scene::build(camera, film, integrator, materials, shapes, lights)
+        let scene = Scene::build(camera, materials, shapes, lights)
             .with_world_medium(world_medium)
             .with_cutouts(self.cutouts.take());
         if scene.lights.is_empty() {
@@ -279,9 +321,15 @@ impl Loader {
         }
         let mut warnings = self.textures.borrow_mut().warnings.split_off(0);
         warnings.append(&mut self.warnings.take());
-        scene.warnings = warnings;
-        scene.load_peak_bytes = load_peak;
-        Ok(scene)
+        Ok(Loaded {
+            scene,
+            settings: RenderSettings { integrator, film },
+            report: LoadReport {
+                warnings,
+                inputs: Vec::new(),
+                peak_bytes: load_peak,
+            },
+        })
     }
 }
 

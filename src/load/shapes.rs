@@ -9,10 +9,11 @@ use glam::{Mat4, Quat, Vec3};
 
 use super::spectra::Role;
 use super::{list, AssetMaterialSlots, Loader, MAX_COORDINATE};
+use crate::load::format::{ScaleSpec, SceneFile, ShapeKind, ShapeSpec, TransformSpec};
+use crate::load::import::{self, Asset};
+use crate::load::SceneError;
 use crate::material::Material;
-use crate::scene::format::{ScaleSpec, SceneFile, ShapeKind, ShapeSpec, TransformSpec};
-use crate::scene::import::{self, Asset};
-use crate::scene::{Emission, Mesh, SceneError, ShapeInstance};
+use crate::scene::{Emission, Mesh, ShapeInstance};
 
 /// Finest built-in sphere tessellation accepted.
 const MAX_SPHERE_SEGMENTS: u32 = 4096;

@@ -5,9 +5,9 @@ use super::spectra::Role;
 use super::Loader;
 use crate::film::{AovSet, ColourTransform, FilmSettings, SpectralLayout};
 use crate::integrator::Integrator;
-use crate::scene::format::SceneFile;
-use crate::scene::spectrum_spec::SpectrumSpec;
-use crate::scene::SceneError;
+use crate::load::format::SceneFile;
+use crate::load::spectrum_spec::SpectrumSpec;
+use crate::load::SceneError;
 use crate::spectrum::Spectrum;
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 
@@ -137,7 +137,7 @@ pub fn check_film_size(width: u32, height: u32, buckets: u32) -> Result<(), Stri
         ));
     }
     let (film, writing) =
-        crate::render::film_bytes(width as u64 * height as u64, buckets, true, false);
+        crate::film::film_bytes(width as u64 * height as u64, buckets, true, false);
     crate::memory::check(
         &format!("the film ({width}x{height} pixels, {buckets} spectral buckets)"),
         film + writing,

@@ -4,9 +4,9 @@
 use glam::Vec3;
 
 use super::Loader;
-use crate::scene::format::SceneFile;
-use crate::scene::spectrum_spec::SpectrumSpec;
-use crate::scene::SceneError;
+use crate::load::format::SceneFile;
+use crate::load::spectrum_spec::SpectrumSpec;
+use crate::load::SceneError;
 use crate::spectrum::{cie, csv, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 /// Which physical quantity a spectrum stands for: it decides how RGB is

@@ -3,11 +3,11 @@
 
 use super::spectra::Role;
 use super::Loader;
+use crate::load::format::{MaterialSpec, SceneFile};
+use crate::load::spectrum_spec::IorSpec;
+use crate::load::SceneError;
 use crate::material::microfacet::alpha_from_roughness;
 use crate::material::{ior, metals, Ior, Material};
-use crate::scene::format::{MaterialSpec, SceneFile};
-use crate::scene::spectrum_spec::IorSpec;
-use crate::scene::SceneError;
 use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::texture::{Encoding, TextureRef};
 

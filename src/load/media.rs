@@ -3,10 +3,10 @@
 
 use super::spectra::Role;
 use super::Loader;
+use crate::load::format::{MediumSpec, SceneFile};
+use crate::load::spectrum_spec::SpectrumSpec;
+use crate::load::SceneError;
 use crate::medium::{water, HenyeyGreenstein, Medium};
-use crate::scene::format::{MediumSpec, SceneFile};
-use crate::scene::spectrum_spec::SpectrumSpec;
-use crate::scene::SceneError;
 use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 /// Coefficients above this (per scene unit) make every segment opaque in

@@ -7,8 +7,8 @@ use glam::Vec3;
 use super::{list, Loader, MAX_COORDINATE};
 use crate::camera::{fov_from_focal_length, Camera};
 use crate::film::FilmSettings;
-use crate::scene::format::{CameraKind, SceneFile, ShapeKind};
-use crate::scene::SceneError;
+use crate::load::format::{CameraKind, SceneFile, ShapeKind};
+use crate::load::SceneError;
 
 impl Loader {
     pub(super) fn camera(&self, file: &SceneFile, s: &FilmSettings) -> Result<Camera, SceneError> {

@@ -1,0 +1,60 @@
+//! A tile's samples: every pixel's sample indices of a pass, each with the
+//! sampler of its (seed, pixel, index), measured by the integrator.
+
+use std::ops::Range;
+
+use super::job::TileRect;
+use super::{PathCounters, PixelSample, RenderJob};
+use crate::film::FilmTile;
+use crate::sampler::Sampler;
+
+/// Mixed into the seed of the AOVs' samplers.
+const AOV_SEED: u64 = 0xa0f5_3c1d_9e77_b4a1;
+
+/// Renders the samples `indices(x, y)` of every pixel of `rect` into a new
+/// tile for a pass of `pass_len` samples a pixel. `sample` measures one
+/// sample of a pixel and may splat into the tile. Counts the samples, rays
+/// and non-finite values into the job (once a tile: per pixel, every thread
+/// would update the same counters hundreds of thousands of times a pass).
+pub fn render_tile<S>(
+    job: &RenderJob,
+    rect: TileRect,
+    pass_len: u32,
+    indices: impl Fn(u32, u32) -> Range<u32>,
+    sample: S,
+) -> FilmTile
+where
+    S: Fn(u32, u32, &mut Sampler, &mut FilmTile, &mut PathCounters) -> PixelSample,
+{
+    let (x0, y0, w, h) = rect;
+    let seed = job.options.seed;
+    let mut tile = job.new_tile(rect, pass_len);
+    let mut counters = PathCounters::default();
+    let (mut bad, mut taken) = (0, 0);
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let range = indices(x, y);
+            taken += range.len() as u64;
+            for index in range {
+                let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
+                let s = sample(x, y, &mut sampler, &mut tile, &mut counters);
+                if s.l.is_finite() {
+                    tile.add_sample(x, y, s.l, &s.wl);
+                } else {
+                    bad += 1;
+                    tile.add_empty_sample(x, y);
+                }
+                if let Some(aovs) = job.aovs {
+                    // A stream of its own: the image is the same with or
+                    // without AOVs.
+                    let mut s = Sampler::for_sample(seed ^ AOV_SEED, x, y, index as u64);
+                    let [dx, dy, _, _] = s.next_4d();
+                    let a = aovs.first_hit(job.scene, x as f32 + dx, y as f32 + dy, &mut s);
+                    tile.add_aov(x, y, &a);
+                }
+            }
+        }
+    }
+    job.count(taken, &counters, bad + tile.non_finite_splats);
+    tile
+}

@@ -1,0 +1,100 @@
+//! Renders a loaded scene under some settings: checks the options, starts
+//! the worker threads and hands the job to the integrator, whose loop
+//! (its own or a shared driver's, `crate::drive`) does the rest. The
+//! result depends only on the scene, the settings, the seed and the
+//! samples taken, never on threads or timing.
+
+mod memory;
+
+pub use crate::drive::adaptive::{
+    pilot_spp, progress as adaptive_progress, targets as adaptive_targets,
+};
+pub use crate::drive::{PassHook, RenderError, RenderOptions, RenderStats, Stop};
+pub use memory::{memory_estimate, MemoryEstimate};
+
+use crate::drive::{AovTracer, RenderJob};
+use crate::film::{Film, FilmSettings};
+use crate::integrator::aov::Aovs;
+use crate::integrator::Integrator;
+use crate::scene::Scene;
+
+/// How to render a scene: the integrator with its parameters, and the
+/// film (size, samples, seed, spectral buckets, colour, output). Loading
+/// a scene file gives the file's; change them freely, the scene stays.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub integrator: Integrator,
+    pub film: FilmSettings,
+}
+
+impl RenderSettings {
+    /// One render of the whole film at the settings' samples and seed.
+    pub fn options(&self) -> RenderOptions {
+        RenderOptions::new(&self.film)
+    }
+}
+
+/// Renders `scene` under `settings`. Refuses options the integrator's loop
+/// cannot honour and a film whose size is not the camera's, before the
+/// first sample.
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    options: &RenderOptions,
+) -> Result<(Film, RenderStats), RenderError> {
+    let f = &settings.film;
+    if scene.camera.resolution() != (f.width, f.height) {
+        return Err(RenderError::Resolution {
+            film: (f.width, f.height),
+            camera: scene.camera.resolution(),
+        });
+    }
+    let integrator = settings.integrator.as_integrate();
+    integrator.check(&scene.camera, f, options)?;
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = options.threads {
+        check_address_space(n)?;
+        b = b.num_threads(n);
+    }
+    let pool = b.build().map_err(|e| RenderError::Threads {
+        threads: options.threads.unwrap_or(0),
+        reason: e.to_string(),
+    })?;
+    let aovs = f.aovs.traced().then(|| Aovs::new(f.observer));
+    let tracer = aovs.as_ref().map(|a| a as &dyn AovTracer);
+    Ok(pool.install(|| integrator.render(RenderJob::new(scene, f, options, tracer))))
+}
+
+/// Address space a worker thread takes: its 2 MiB stack (Rust's default),
+/// guard page and signal stack, rounded up.
+const THREAD_ADDRESS_SPACE: u64 = 4 << 20;
+
+/// Refuses more threads than the process's address-space limit allows
+/// (with half of it left for the scene and film). Past that limit a thread
+/// can start and then fail to allocate its signal stack, which the standard
+/// library can only abort on.
+fn check_address_space(threads: usize) -> Result<(), RenderError> {
+    // SAFETY: getrlimit only writes the struct it is given.
+    let limit = unsafe {
+        let mut r = std::mem::zeroed::<libc::rlimit>();
+        if libc::getrlimit(libc::RLIMIT_AS, &mut r) != 0 {
+            return Ok(());
+        }
+        r.rlim_cur
+    };
+    if limit == libc::RLIM_INFINITY {
+        return Ok(());
+    }
+    let need = threads as u64 * THREAD_ADDRESS_SPACE;
+    if need > limit / 2 {
+        return Err(RenderError::Threads {
+            threads,
+            reason: format!(
+                "they need about {} MiB of address space and the process may use {} MiB in all (ulimit -v)",
+                need >> 20,
+                limit >> 20
+            ),
+        });
+    }
+    Ok(())
+}
