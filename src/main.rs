@@ -244,6 +244,56 @@ enum StrategyArg {
     Bsdf,
 }
 
+impl From<TonemapArg> for Tonemap {
+    fn from(t: TonemapArg) -> Self {
+        match t {
+            TonemapArg::Clamp => Tonemap::Clamp,
+            TonemapArg::Reinhard => Tonemap::Reinhard,
+            TonemapArg::Filmic => Tonemap::Filmic,
+        }
+    }
+}
+
+impl From<GamutArg> for Gamut {
+    fn from(g: GamutArg) -> Self {
+        match g {
+            GamutArg::Clip => Gamut::Clip,
+            GamutArg::Map => Gamut::Map,
+        }
+    }
+}
+
+impl From<StrategyArg> for Strategy {
+    fn from(s: StrategyArg) -> Self {
+        match s {
+            StrategyArg::Mis => Strategy::Mis,
+            StrategyArg::Nee => Strategy::Nee,
+            StrategyArg::Bsdf => Strategy::Bsdf,
+        }
+    }
+}
+
+/// Interrupts that Ctrl-C (and SIGTERM) set: the first stops after the
+/// pass under way, a second exits without writing, any while writing waits.
+fn interrupts_on_ctrl_c() -> Result<std::sync::Arc<Interrupts>> {
+    let interrupts = Interrupts::new();
+    let handler = interrupts.clone();
+    ctrlc::set_handler(move || match handler.on_signal() {
+        Reaction::Stop => eprintln!(
+            "\ninterrupted: finishing the samples under way, then writing (Ctrl-C again to abort)"
+        ),
+        Reaction::Exit => {
+            eprintln!("\ninterrupted again: exiting without writing");
+            std::process::exit(130);
+        }
+        Reaction::Wait => eprintln!(
+            "\ninterrupted while writing: the files are finished first, so that they replace the old ones together"
+        ),
+    })
+    .context("cannot install the Ctrl-C handler")?;
+    Ok(interrupts)
+}
+
 /// "90s", "5m", "1.5h" or plain seconds.
 fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
     let s = s.trim();
@@ -317,40 +367,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 spectral_buckets,
                 no_spectral,
                 exposure,
-                tonemap: tonemap.map(|t| match t {
-                    TonemapArg::Clamp => Tonemap::Clamp,
-                    TonemapArg::Reinhard => Tonemap::Reinhard,
-                    TonemapArg::Filmic => Tonemap::Filmic,
-                }),
-                gamut: gamut.map(|g| match g {
-                    GamutArg::Clip => Gamut::Clip,
-                    GamutArg::Map => Gamut::Map,
-                }),
+                tonemap: tonemap.map(Into::into),
+                gamut: gamut.map(Into::into),
                 integrator,
-                strategy: strategy.map(|s| match s {
-                    StrategyArg::Mis => Strategy::Mis,
-                    StrategyArg::Nee => Strategy::Nee,
-                    StrategyArg::Bsdf => Strategy::Bsdf,
-                }),
+                strategy: strategy.map(Into::into),
                 split,
             };
-            let interrupts = Interrupts::new();
-            {
-                let interrupts = interrupts.clone();
-                ctrlc::set_handler(move || match interrupts.on_signal() {
-                    Reaction::Stop => eprintln!(
-                        "\ninterrupted: finishing the samples under way, then writing (Ctrl-C again to abort)"
-                    ),
-                    Reaction::Exit => {
-                        eprintln!("\ninterrupted again: exiting without writing");
-                        std::process::exit(130);
-                    }
-                    Reaction::Wait => eprintln!(
-                        "\ninterrupted while writing: the files are finished first, so that they replace the old ones together"
-                    ),
-                })
-                .context("cannot install the Ctrl-C handler")?;
-            }
+            let interrupts = interrupts_on_ctrl_c()?;
             let job = RenderJob {
                 scene,
                 output,

@@ -90,53 +90,7 @@ pub fn merge(parts: &[(PathBuf, SpectralImage)]) -> Result<SpectralImage> {
     };
     let mut described = Vec::new();
     for (path, image) in parts {
-        let (samples, region) = describe(path, image)?;
-        let same = |k: &str| image.attributes.get(k) == first.attributes.get(k);
-        let mismatch = |what: &str| {
-            anyhow::anyhow!(
-                "{} and {} are of different {what}",
-                first_path.display(),
-                path.display()
-            )
-        };
-        if !same(ATTR_SCENE_HASH) {
-            return Err(mismatch("scenes (scene hash)"));
-        }
-        if !same(ATTR_SEED) {
-            return Err(mismatch("seeds"));
-        }
-        if (image.width, image.height) != (first.width, first.height) {
-            return Err(mismatch("resolutions"));
-        }
-        if image.wavelengths != first.wavelengths || image.other.keys().ne(first.other.keys()) {
-            return Err(mismatch("spectral layouts"));
-        }
-        // The region the attributes claim must hold every sample the part
-        // has: a part with samples outside it (forged, or edited) could
-        // overlap another one unseen.
-        let counts = &image.other[SAMPLE_COUNT];
-        let [x0, y0, x1, y1] = region;
-        if x1 > image.width as u32 || y1 > image.height as u32 {
-            bail!(
-                "{}: region {region:?} lies outside the {}×{} image",
-                path.display(),
-                image.width,
-                image.height
-            );
-        }
-        for (i, &c) in counts.iter().enumerate() {
-            let (x, y) = ((i % image.width) as u32, (i / image.width) as u32);
-            let inside = (x0..x1).contains(&x) && (y0..y1).contains(&y);
-            if c != 0.0 && !inside {
-                bail!(
-                    "{}: pixel ({x}, {y}) has {c} samples outside the part's region {region:?}: the part is not what its attributes say",
-                    path.display()
-                );
-            }
-            if !(c >= 0.0 && c.is_finite()) {
-                bail!("{}: pixel ({x}, {y}) has {c} samples", path.display());
-            }
-        }
+        let (samples, region) = check_part(first_path, first, path, image)?;
         described.push(Part {
             path,
             image,
@@ -144,6 +98,72 @@ pub fn merge(parts: &[(PathBuf, SpectralImage)]) -> Result<SpectralImage> {
             region,
         });
     }
+    check_no_overlap(&described)?;
+    let (mut merged, total) = merged_planes(first, &described);
+    describe_merged(&mut merged, &described, &total);
+    Ok(merged)
+}
+
+/// A part's sample range and region, once it is checked to be of the same
+/// render as the first part and to hold samples only where it says.
+fn check_part(
+    first_path: &Path,
+    first: &SpectralImage,
+    path: &Path,
+    image: &SpectralImage,
+) -> Result<(Range<u32>, [u32; 4])> {
+    let (samples, region) = describe(path, image)?;
+    let same = |k: &str| image.attributes.get(k) == first.attributes.get(k);
+    let mismatch = |what: &str| {
+        anyhow::anyhow!(
+            "{} and {} are of different {what}",
+            first_path.display(),
+            path.display()
+        )
+    };
+    if !same(ATTR_SCENE_HASH) {
+        return Err(mismatch("scenes (scene hash)"));
+    }
+    if !same(ATTR_SEED) {
+        return Err(mismatch("seeds"));
+    }
+    if (image.width, image.height) != (first.width, first.height) {
+        return Err(mismatch("resolutions"));
+    }
+    if image.wavelengths != first.wavelengths || image.other.keys().ne(first.other.keys()) {
+        return Err(mismatch("spectral layouts"));
+    }
+    // The region the attributes claim must hold every sample the part
+    // has: a part with samples outside it (forged, or edited) could
+    // overlap another one unseen.
+    let counts = &image.other[SAMPLE_COUNT];
+    let [x0, y0, x1, y1] = region;
+    if x1 > image.width as u32 || y1 > image.height as u32 {
+        bail!(
+            "{}: region {region:?} lies outside the {}×{} image",
+            path.display(),
+            image.width,
+            image.height
+        );
+    }
+    for (i, &c) in counts.iter().enumerate() {
+        let (x, y) = ((i % image.width) as u32, (i / image.width) as u32);
+        let inside = (x0..x1).contains(&x) && (y0..y1).contains(&y);
+        if c != 0.0 && !inside {
+            bail!(
+                    "{}: pixel ({x}, {y}) has {c} samples outside the part's region {region:?}: the part is not what its attributes say",
+                    path.display()
+                );
+        }
+        if !(c >= 0.0 && c.is_finite()) {
+            bail!("{}: pixel ({x}, {y}) has {c} samples", path.display());
+        }
+    }
+    Ok((samples, region))
+}
+
+/// Refuses parts that hold the same samples of the same pixels.
+fn check_no_overlap(described: &[Part]) -> Result<()> {
     for (i, a) in described.iter().enumerate() {
         for b in &described[i + 1..] {
             let regions_meet = a.region[0] < b.region[2]
@@ -161,7 +181,12 @@ pub fn merge(parts: &[(PathBuf, SpectralImage)]) -> Result<SpectralImage> {
             }
         }
     }
+    Ok(())
+}
 
+/// The parts' planes, each pixel the sample-weighted mean of the parts'
+/// (the sample counts summed), and each pixel's total sample count.
+fn merged_planes(first: &SpectralImage, described: &[Part]) -> (SpectralImage, Vec<f64>) {
     let n = first.width * first.height;
     let counts: Vec<&Vec<f32>> = described
         .iter()
@@ -200,7 +225,12 @@ pub fn merge(parts: &[(PathBuf, SpectralImage)]) -> Result<SpectralImage> {
         SAMPLE_COUNT.into(),
         total.iter().map(|&t| t as f32).collect(),
     );
+    (merged, total)
+}
 
+/// The merged image's attributes: its sample range(s), region, fewest
+/// samples a pixel and number of parts.
+fn describe_merged(merged: &mut SpectralImage, described: &[Part], total: &[f64]) {
     // The merged sample range, where the parts form one.
     let mut ranges: Vec<Range<u32>> = described.iter().map(|p| p.samples.clone()).collect();
     ranges.sort_by_key(|r| (r.start, r.end));
@@ -233,8 +263,7 @@ pub fn merge(parts: &[(PathBuf, SpectralImage)]) -> Result<SpectralImage> {
         .insert("prismMinSamplesPerPixel".into(), (min as u64).to_string());
     merged
         .attributes
-        .insert("prismMergedParts".into(), parts.len().to_string());
-    Ok(merged)
+        .insert("prismMergedParts".into(), described.len().to_string());
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 
 use super::Interrupts;
 use std::ops::Range;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -18,10 +18,12 @@ use crate::film::{output, spectral_exr};
 use crate::film::{ColourTransform, Film, FilmSettings};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
-use crate::load::{self, Overrides};
+use crate::load::{self, Loaded, Overrides};
 use crate::memory::for_people;
 use crate::merge::{ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
-use crate::render::{memory_estimate, render, PassHook, Stop};
+use crate::render::{
+    memory_estimate, render, PassHook, RenderOptions, RenderSettings, RenderStats, Stop,
+};
 
 pub struct RenderJob {
     pub scene: PathBuf,
@@ -110,6 +112,62 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         eprintln!("warning: {w}");
     }
     let (scene, settings) = (&loaded.scene, &loaded.settings);
+    let mut options = render_options(job, settings)?;
+    let estimate = memory_estimate(scene, settings, &options, loaded.report.peak_bytes);
+    let parts = format!(
+        "loading {}; then scene {}, film {}, passes {}, writing {}",
+        for_people(estimate.loading),
+        for_people(estimate.scene),
+        for_people(estimate.film),
+        for_people(estimate.passes),
+        for_people(estimate.writing)
+    );
+    crate::memory::check("the render", estimate.total())
+        .map_err(|e| anyhow::anyhow!("{e} ({parts}): use fewer pixels or spectral buckets"))?;
+
+    let stem = output_stem(&job.scene, job.output.clone());
+    check_writable(&stem)?;
+    report_stale_temporaries(&stem);
+    options.after_pass = pass_hooks(job, &stem, &settings.film);
+    eprintln!(
+        "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} lights, {}x{}, {} integrator",
+        job.scene.display(),
+        load_start.elapsed().as_secs_f64(),
+        scene.triangle_count(),
+        scene.degenerate_triangles,
+        scene.bvh().node_count(),
+        for_people(scene.bvh().size_bytes() as u64),
+        scene.lights.len(),
+        settings.film.width,
+        settings.film.height,
+        settings.integrator.name()
+    );
+    eprintln!(
+        "memory: about {} at the peak ({parts})",
+        for_people(estimate.total())
+    );
+    if let Integrator::Sppm(p) = &settings.integrator {
+        eprintln!(
+            "photon mapping: {} photons per iteration, radius {:.4} (scene units) in the first",
+            p.photons_per_iteration(scene),
+            p.initial_radius(scene)
+        );
+    }
+
+    let (result, stats) = render(scene, settings, &options)?;
+    report_render(job, &options, &result, &stats, &settings.film);
+    if !job.interrupts.begin_writing() {
+        // Interrupted twice: the signal handler is ending the process.
+        return Ok(RenderOutcome { interrupted: true });
+    }
+    write_outputs(job, &loaded, &options, &stats, &result, &stem)?;
+    Ok(RenderOutcome {
+        interrupted: stats.interrupted,
+    })
+}
+
+/// The render's options from the job's flags and the scene file's film.
+fn render_options(job: &RenderJob, settings: &RenderSettings) -> Result<RenderOptions> {
     let film = &settings.film;
     if let Some(t) = job.tile {
         if t[2] > film.width || t[3] > film.height {
@@ -122,6 +180,11 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
                 film.width,
                 film.height
             );
+        }
+    }
+    if let Some(t) = job.target_error {
+        if !(t > 0.0 && t.is_finite()) {
+            bail!("--target-error must be a positive relative MSE, such as 0.01");
         }
     }
     let mut options = settings.options();
@@ -144,27 +207,13 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     options.target_error = job.target_error;
     options.log_every = job.log_every;
     options.adaptive = job.adaptive;
-    if let Some(t) = job.target_error {
-        if !(t > 0.0 && t.is_finite()) {
-            bail!("--target-error must be a positive relative MSE, such as 0.01");
-        }
-    }
+    Ok(options)
+}
 
-    let estimate = memory_estimate(scene, settings, &options, loaded.report.peak_bytes);
-    let parts = format!(
-        "loading {}; then scene {}, film {}, passes {}, writing {}",
-        for_people(estimate.loading),
-        for_people(estimate.scene),
-        for_people(estimate.film),
-        for_people(estimate.passes),
-        for_people(estimate.writing)
-    );
-    crate::memory::check("the render", estimate.total())
-        .map_err(|e| anyhow::anyhow!("{e} ({parts}): use fewer pixels or spectral buckets"))?;
-
-    let stem = output_stem(&job.scene, job.output.clone());
-    check_writable(&stem)?;
-    for (path, removed) in super::stale_temporaries(&stem) {
+/// Removes (or names) the hidden files an earlier, killed render of this
+/// name left.
+fn report_stale_temporaries(stem: &Path) {
+    for (path, removed) in super::stale_temporaries(stem) {
         if removed {
             eprintln!(
                 "removed {}, left by an earlier render of this name that was killed",
@@ -177,9 +226,13 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             );
         }
     }
+}
+
+/// What sees the film after every pass: the preview PNG, the tev display.
+fn pass_hooks(job: &RenderJob, stem: &Path, film: &FilmSettings) -> Option<PassHook> {
     let mut hooks: Vec<PassHook> = Vec::new();
     if let Some(every) = job.preview_every {
-        hooks.push(preview_writer(suffixed(&stem, "png"), film.clone(), every));
+        hooks.push(preview_writer(suffixed(stem, "png"), film.clone(), every));
     }
     if let Some(address) = &job.display {
         let name = stem
@@ -191,39 +244,23 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             Err(e) => eprintln!("warning: {e:#}; rendering without a display"),
         }
     }
-    if !hooks.is_empty() {
-        options.after_pass = Some(PassHook(Arc::new(move |f: &Film| {
+    (!hooks.is_empty()).then(|| {
+        PassHook(Arc::new(move |f: &Film| {
             for hook in &hooks {
                 (hook.0)(f);
             }
-        })));
-    }
-    eprintln!(
-        "loaded {} in {:.2} s: {} triangles ({} degenerate dropped), BVH {} nodes ({}), {} lights, {}x{}, {} integrator",
-        job.scene.display(),
-        load_start.elapsed().as_secs_f64(),
-        scene.triangle_count(),
-        scene.degenerate_triangles,
-        scene.bvh().node_count(),
-        for_people(scene.bvh().size_bytes() as u64),
-        scene.lights.len(),
-        film.width,
-        film.height,
-        settings.integrator.name()
-    );
-    eprintln!(
-        "memory: about {} at the peak ({parts})",
-        for_people(estimate.total())
-    );
-    if let Integrator::Sppm(p) = &settings.integrator {
-        eprintln!(
-            "photon mapping: {} photons per iteration, radius {:.4} (scene units) in the first",
-            p.photons_per_iteration(scene),
-            p.initial_radius(scene)
-        );
-    }
+        }))
+    })
+}
 
-    let (result, stats) = render(scene, settings, &options)?;
+/// The closing lines: samples, speed, error, warnings, why it stopped.
+fn report_render(
+    job: &RenderJob,
+    options: &RenderOptions,
+    result: &Film,
+    stats: &RenderStats,
+    film: &FilmSettings,
+) {
     let secs = stats.elapsed.as_secs_f64();
     eprintln!(
         "rendered {} samples ({}) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
@@ -255,20 +292,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         );
     }
     if job.adaptive {
-        let counts: Vec<u64> = (0..film.height)
-            .flat_map(|y| (0..film.width).map(move |x| (x, y)))
-            .map(|(x, y)| result.sums(x, y).samples)
-            .filter(|&n| n > 0)
-            .collect();
-        let (lo, hi) = (
-            counts.iter().min().copied().unwrap_or(0),
-            counts.iter().max().copied().unwrap_or(0),
-        );
-        eprintln!(
-            "adaptive: {lo} to {hi} samples per pixel (mean {:.1}), counts chosen after a pilot of the first {} of every pixel",
-            counts.iter().sum::<u64>() as f64 / counts.len().max(1) as f64,
-            stats.pilot_spp
-        );
+        report_adaptive_counts(result, stats, film);
     }
     // After an adaptive pilot, every pixel advances by the same share of
     // the rest of its own count.
@@ -288,19 +312,44 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
         Stop::TimeBudget => eprintln!("the time budget is spent: {taken}"),
         Stop::ErrorTarget => eprintln!("the estimated relMSE is below the target: {taken}"),
     }
-    let exr = suffixed(&stem, "exr");
-    let png = suffixed(&stem, "png");
-    if !job.interrupts.begin_writing() {
-        // Interrupted twice: the signal handler is ending the process.
-        return Ok(RenderOutcome { interrupted: true });
-    }
-    // The set of files replaces an earlier render's all at once, or not at
-    // all: never an .exr of this render beside a .spectral.exr of another.
+}
+
+fn report_adaptive_counts(result: &Film, stats: &RenderStats, film: &FilmSettings) {
+    let counts: Vec<u64> = (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+        .map(|(x, y)| result.sums(x, y).samples)
+        .filter(|&n| n > 0)
+        .collect();
+    let (lo, hi) = (
+        counts.iter().min().copied().unwrap_or(0),
+        counts.iter().max().copied().unwrap_or(0),
+    );
+    eprintln!(
+        "adaptive: {lo} to {hi} samples per pixel (mean {:.1}), counts chosen after a pilot of the first {} of every pixel",
+        counts.iter().sum::<u64>() as f64 / counts.len().max(1) as f64,
+        stats.pilot_spp
+    );
+}
+
+/// Writes NAME.exr, NAME.png and NAME.spectral.exr as one set: they
+/// replace an earlier render's all at once, or not at all (never an .exr
+/// of this render beside a .spectral.exr of another).
+fn write_outputs(
+    job: &RenderJob,
+    loaded: &Loaded,
+    options: &RenderOptions,
+    stats: &RenderStats,
+    result: &Film,
+    stem: &Path,
+) -> Result<()> {
+    let (film, integrator) = (&loaded.settings.film, &loaded.settings.integrator);
+    let exr = suffixed(stem, "exr");
+    let png = suffixed(stem, "png");
     output::as_one_set(|| {
-        output::write_film_exr(&result, film, &exr)?;
-        output::write_png(&result, film, &png)?;
+        output::write_film_exr(result, film, &exr)?;
+        output::write_png(result, film, &png)?;
         if film.spectral_output {
-            let spectral = suffixed(&stem, "spectral.exr");
+            let spectral = suffixed(stem, "spectral.exr");
             let samples = &options.samples;
             let mut extra = vec![
                 ("prismScene", job.scene.display().to_string()),
@@ -310,7 +359,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
                 (ATTR_SEED, options.seed.to_string()),
                 (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
                 (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
-                ("prismIntegrator", settings.integrator.name().to_string()),
+                ("prismIntegrator", integrator.name().to_string()),
                 ("prismObserver", film.observer.name().to_string()),
                 // How `prism merge` makes the PNG from the R, G, B channels.
                 (ATTR_DISPLAY, film.display.name().to_string()),
@@ -321,15 +370,13 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             if stats.stop != Stop::Complete {
                 extra.push(("prismInterrupted", "true".into()));
             }
-            spectral_exr::write(&result, &film.colour, &spectral, &extra)?;
+            spectral_exr::write(result, &film.colour, &spectral, &extra)?;
         }
         Ok(())
     })?;
     eprintln!("wrote {} and {}", exr.display(), png.display());
     if film.spectral_output {
-        eprintln!("wrote {}", suffixed(&stem, "spectral.exr").display());
+        eprintln!("wrote {}", suffixed(stem, "spectral.exr").display());
     }
-    Ok(RenderOutcome {
-        interrupted: stats.interrupted,
-    })
+    Ok(())
 }

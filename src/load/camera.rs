@@ -7,7 +7,7 @@ use glam::Vec3;
 use super::{list, Loader, MAX_COORDINATE};
 use crate::camera::{fov_from_focal_length, Camera};
 use crate::film::FilmSettings;
-use crate::load::format::{CameraKind, SceneFile, ShapeKind};
+use crate::load::format::{CameraKind, CameraSpec, SceneFile, ShapeKind};
 use crate::load::SceneError;
 
 impl Loader {
@@ -57,29 +57,7 @@ impl Loader {
             return Err(self.error("`camera.up` must not be parallel to the viewing direction"));
         }
         let camera = Camera::look_at(pos, at, up, fov, s.width, s.height);
-        let lens = match (c.aperture_radius, c.f_number) {
-            (Some(_), Some(_)) => {
-                return Err(
-                    self.error("`camera`: give either `aperture_radius` or `f_number`, not both")
-                )
-            }
-            (Some(r), None) => Some(("aperture_radius", r)),
-            (None, Some(n)) => {
-                let Some(f) = c.focal_length else {
-                    return Err(self.error(
-                        "`camera.f_number` needs `camera.focal_length` (the aperture is focal length / f-number)",
-                    ));
-                };
-                if !(n > 0.0) {
-                    return Err(
-                        self.error(format!("`camera.f_number` must be positive, found {n}"))
-                    );
-                }
-                // Millimetres to scene units taken as metres.
-                Some(("f_number", 0.5 * f / n / 1000.0))
-            }
-            (None, None) => None,
-        };
+        let lens = self.lens(c)?;
         if lens.is_none() && c.focus_distance.is_some() {
             return Err(
                 self.error("`camera.focus_distance` needs a lens: `aperture_radius` or `f_number`")
@@ -132,6 +110,34 @@ impl Loader {
                 Ok(camera.orthographic(width * s.height as f32 / s.width as f32))
             }
         }
+    }
+
+    /// The lens the camera table asks for: the key that gave it and the
+    /// aperture radius (scene units), or None for a pinhole.
+    fn lens(&self, c: &CameraSpec) -> Result<Option<(&'static str, f32)>, SceneError> {
+        Ok(match (c.aperture_radius, c.f_number) {
+            (Some(_), Some(_)) => {
+                return Err(
+                    self.error("`camera`: give either `aperture_radius` or `f_number`, not both")
+                )
+            }
+            (Some(r), None) => Some(("aperture_radius", r)),
+            (None, Some(n)) => {
+                let Some(f) = c.focal_length else {
+                    return Err(self.error(
+                        "`camera.f_number` needs `camera.focal_length` (the aperture is focal length / f-number)",
+                    ));
+                };
+                if !(n > 0.0) {
+                    return Err(
+                        self.error(format!("`camera.f_number` must be positive, found {n}"))
+                    );
+                }
+                // Millimetres to scene units taken as metres.
+                Some(("f_number", 0.5 * f / n / 1000.0))
+            }
+            (None, None) => None,
+        })
     }
 
     /// The camera of a glTF file: the one called `camera.name`, or the first.

@@ -356,6 +356,25 @@ fn material(
         texture: emission_texture,
         two_sided: false,
     });
+    let cutout = cutout(m, glass, tr, dir, textures, warnings);
+    AssetMaterial {
+        name: m.name.clone(),
+        material,
+        emission,
+        cutout,
+    }
+}
+
+/// Dissolve (`d`, `Tr`, `map_d`) on a surface that is not glass: a
+/// cut-out, the surface there with probability d × map_d.
+fn cutout(
+    m: &tobj::Material,
+    glass: bool,
+    tr: Option<f32>,
+    dir: &Path,
+    textures: &mut TextureCache,
+    warnings: &mut Vec<String>,
+) -> Option<Cutout> {
     // Dissolve on a surface that is not glass: a cut-out (the surface is
     // there with probability d × map_d).
     let matte = m
@@ -377,17 +396,11 @@ fn material(
         .filter(|d| d.is_finite())
         .unwrap_or(1.0)
         .clamp(0.0, 1.0);
-    let cutout = (!glass && (dissolve < 1.0 || matte.is_some())).then_some(Cutout {
+    (!glass && (dissolve < 1.0 || matte.is_some())).then_some(Cutout {
         factor: dissolve,
         texture: matte,
         mode: CutoutMode::Blend,
-    });
-    AssetMaterial {
-        name: m.name.clone(),
-        material,
-        emission,
-        cutout,
-    }
+    })
 }
 
 /// `Tf r g b` (or one grey value) as a colour in (0, 1]; None for the

@@ -311,27 +311,7 @@ impl Context<'_> {
             .map(|texture| NormalMap { texture, scale })
         });
         let layers = self.layers(m);
-        let [.., alpha] = pbr.base_color_factor();
-        let cutout_mode = match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => None,
-            gltf::material::AlphaMode::Mask => Some(CutoutMode::Mask {
-                cutoff: m.alpha_cutoff().unwrap_or(0.5),
-            }),
-            gltf::material::AlphaMode::Blend => Some(CutoutMode::Blend),
-        };
-        let cutout = cutout_mode.map(|mode| Cutout {
-            factor: alpha.clamp(0.0, 1.0),
-            texture: pbr.base_color_texture().and_then(|info| {
-                self.texture(
-                    info.texture(),
-                    info.tex_coord(),
-                    info.texture_transform().map(UvTransform::of),
-                    Encoding::Alpha,
-                    "baseColorTexture",
-                )
-            }),
-            mode,
-        });
+        let cutout = self.cutout(m);
         let ior = m
             .ior()
             .filter(|n| n.is_finite() && *n >= 1.0)
@@ -340,23 +320,7 @@ impl Context<'_> {
             pbr.metallic_factor().clamp(0.0, 1.0),
             pbr.roughness_factor().clamp(0.0, 1.0),
         );
-        let transmission = m
-            .transmission()
-            .map_or(0.0, |t| {
-                if t.transmission_texture().is_some() {
-                    self.ignored.insert("transmissionTexture".into());
-                }
-                t.transmission_factor()
-            })
-            .clamp(0.0, 1.0);
-        if m.volume()
-            .is_some_and(|v| v.thickness_factor() > 0.0 || v.thickness_texture().is_some())
-        {
-            self.ignored.insert(
-                "KHR_materials_volume thickness (a rasteriser's stand-in: prism traces the mesh's own thickness)"
-                    .into(),
-            );
-        }
+        let transmission = self.transmission(m);
         // Glass where transmission × (1 − metallic) ≥ ½. With a metalness
         // texture that holds per texel: the material is glass that shades
         // its opaque texels with the glTF BRDF.
@@ -410,9 +374,70 @@ impl Context<'_> {
                     layers,
                 }))
             };
+        let emission = self.emission(m);
+        AssetMaterial {
+            name,
+            material,
+            emission,
+            cutout,
+        }
+    }
+
+    /// The cut-out of an alpha-masked or blended material.
+    fn cutout(&mut self, m: &gltf::Material) -> Option<Cutout> {
+        let pbr = m.pbr_metallic_roughness();
+        let [.., alpha] = pbr.base_color_factor();
+        let cutout_mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => None,
+            gltf::material::AlphaMode::Mask => Some(CutoutMode::Mask {
+                cutoff: m.alpha_cutoff().unwrap_or(0.5),
+            }),
+            gltf::material::AlphaMode::Blend => Some(CutoutMode::Blend),
+        };
+        cutout_mode.map(|mode| Cutout {
+            factor: alpha.clamp(0.0, 1.0),
+            texture: pbr.base_color_texture().and_then(|info| {
+                self.texture(
+                    info.texture(),
+                    info.tex_coord(),
+                    info.texture_transform().map(UvTransform::of),
+                    Encoding::Alpha,
+                    "baseColorTexture",
+                )
+            }),
+            mode,
+        })
+    }
+
+    /// KHR_materials_transmission's factor (its texture is not read); notes
+    /// KHR_materials_volume's thickness, which prism does not need.
+    fn transmission(&mut self, m: &gltf::Material) -> f32 {
+        let transmission = m
+            .transmission()
+            .map_or(0.0, |t| {
+                if t.transmission_texture().is_some() {
+                    self.ignored.insert("transmissionTexture".into());
+                }
+                t.transmission_factor()
+            })
+            .clamp(0.0, 1.0);
+        if m.volume()
+            .is_some_and(|v| v.thickness_factor() > 0.0 || v.thickness_texture().is_some())
+        {
+            self.ignored.insert(
+                "KHR_materials_volume thickness (a rasteriser's stand-in: prism traces the mesh's own thickness)"
+                    .into(),
+            );
+        }
+        transmission
+    }
+
+    /// The emissive factor times KHR_materials_emissive_strength, with its
+    /// texture.
+    fn emission(&mut self, m: &gltf::Material) -> Option<Emission> {
         let strength = m.emissive_strength().unwrap_or(1.0).max(0.0);
         let emissive = Vec3::from(m.emissive_factor()).max(Vec3::ZERO) * strength;
-        let emission = (emissive.max_element() > 0.0 && emissive.is_finite()).then(|| Emission {
+        (emissive.max_element() > 0.0 && emissive.is_finite()).then(|| Emission {
             spectrum: Spectrum::rgb_emission(emissive),
             texture: m.emissive_texture().and_then(|info| {
                 self.texture(
@@ -424,12 +449,6 @@ impl Context<'_> {
                 )
             }),
             two_sided: m.double_sided(),
-        });
-        AssetMaterial {
-            name,
-            material,
-            emission,
-            cutout,
-        }
+        })
     }
 }
