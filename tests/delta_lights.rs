@@ -9,6 +9,7 @@ mod common;
 use std::path::Path;
 
 use glam::{DVec3, Vec3};
+use prism::light::LightSource;
 use prism::load::Loaded;
 use prism::spectrum::SampledWavelengths;
 

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use common::assets::{self, GltfBuilder};
 use glam::{Vec2, Vec3, Vec4};
 use prism::geometry::Ray;
+use prism::light::LightSource;
 use prism::load::{load, Loaded};
 use prism::material::{Ior, Material, ShadingGeometry};
 use prism::scene::Scene;

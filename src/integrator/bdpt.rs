@@ -45,6 +45,7 @@ use crate::drive::{
 use crate::film::{Film, FilmSettings, FilmTile};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
+use crate::light::LightSource;
 use crate::material::{Bsdf, TransportMode};
 use crate::medium::HenyeyGreenstein;
 use crate::sampler::Sampler;

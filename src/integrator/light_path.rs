@@ -13,6 +13,7 @@ use super::PathCounters;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightLeSample;
+use crate::light::LightSource;
 use crate::material::{Bsdf, TransportMode};
 use crate::medium::HenyeyGreenstein;
 use crate::sampler::Sampler;

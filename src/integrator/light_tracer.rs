@@ -26,6 +26,7 @@ use crate::drive::{
 use crate::film::{Film, FilmSettings, FilmTile};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
+use crate::light::LightSource;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};

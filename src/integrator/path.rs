@@ -17,6 +17,7 @@ use crate::film::{Film, FilmSettings};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
+use crate::light::LightSource;
 use crate::material::{Bsdf, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
-use super::{Emitter, LightLeSample, LightLiSample, LightPoint};
+use super::{Emitter, LightLeSample, LightLiSample, LightPoint, LightSource, SceneSphere};
 use crate::geometry::gamma;
 use crate::geometry::Frame;
 use crate::material::cosine_hemisphere;
@@ -205,5 +205,66 @@ impl AreaLight {
             cos.max(0.0) / PI
         };
         (1.0 / self.area, pdf_dir)
+    }
+}
+
+/// What the light must answer whole: see `LightSource` (light/mod.rs).
+impl LightSource for AreaLight {
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    fn is_infinite(&self) -> bool {
+        false
+    }
+
+    fn with_scene_bounds(self, _: SceneSphere) -> Self {
+        self
+    }
+
+    fn power(&self) -> f64 {
+        AreaLight::power(self)
+    }
+
+    fn spectrum(&self) -> Option<&Spectrum> {
+        Some(AreaLight::spectrum(self))
+    }
+
+    #[inline]
+    fn sample_li(
+        &self,
+        p_ref: Vec3,
+        u: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLiSample> {
+        AreaLight::sample_li(self, p_ref, u, wl)
+    }
+
+    #[inline]
+    fn pdf_li(&self, p_ref: Vec3, _: Vec3, p_light: Option<Vec3>) -> f32 {
+        p_light.map_or(0.0, |p| AreaLight::pdf_li(self, p_ref, p))
+    }
+
+    #[inline]
+    fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        AreaLight::l(self, uv, w, wl)
+    }
+
+    #[inline]
+    fn le(&self, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        AreaLight::sample_le(self, u_pos, u_dir, wl)
+    }
+
+    fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        AreaLight::pdf_le(self, dir)
     }
 }

@@ -4,10 +4,10 @@
 //! estimation and light paths find it. Light paths start on a disc that
 //! covers the scene, so it needs the scene's bounds (`with_scene`).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-use super::{LightLeSample, LightLiSample, SceneSphere};
-use crate::spectrum::{SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
+use super::{LightLeSample, LightLiSample, LightSource, SceneSphere};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 #[derive(Clone, Debug)]
 pub struct DirectionalLight {
@@ -59,5 +59,63 @@ impl DirectionalLight {
     /// (per-area, per-solid-angle): the direction is a delta.
     pub fn pdf_le(&self) -> (f32, f32) {
         (self.scene.disc_pdf(), 0.0)
+    }
+}
+
+/// What the light must answer whole: see `LightSource` (light/mod.rs).
+impl LightSource for DirectionalLight {
+    fn is_delta(&self) -> bool {
+        true
+    }
+
+    fn is_infinite(&self) -> bool {
+        true
+    }
+
+    fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
+        self.with_scene(sphere)
+    }
+
+    fn power(&self) -> f64 {
+        DirectionalLight::power(self)
+    }
+
+    fn spectrum(&self) -> Option<&Spectrum> {
+        Some(DirectionalLight::spectrum(self))
+    }
+
+    #[inline]
+    fn sample_li(&self, _: Vec3, _: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
+        DirectionalLight::sample_li(self, wl)
+    }
+
+    /// No ray finds a single direction.
+    #[inline]
+    fn pdf_li(&self, _: Vec3, _: Vec3, _: Option<Vec3>) -> f32 {
+        0.0
+    }
+
+    #[inline]
+    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    /// It has no extent: no escaped ray sees it.
+    #[inline]
+    fn le(&self, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        _: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        DirectionalLight::sample_le(self, u_pos, wl)
+    }
+
+    fn pdf_le(&self, _: Vec3) -> (f32, f32) {
+        DirectionalLight::pdf_le(self)
     }
 }

@@ -6,7 +6,9 @@
 use std::f32::consts::PI;
 
 use super::point::sphere_direction;
-use super::{LightLeSample, LightLiSample, SceneSphere};
+use glam::{Vec2, Vec3};
+
+use super::{LightLeSample, LightLiSample, LightSource, SceneSphere};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 #[derive(Clone, Debug)]
@@ -73,5 +75,65 @@ impl UniformEnvironment {
         } else {
             (0.0, 0.0)
         }
+    }
+}
+
+/// What the light must answer whole: see `LightSource` (light/mod.rs).
+impl LightSource for UniformEnvironment {
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    fn is_infinite(&self) -> bool {
+        true
+    }
+
+    fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
+        self.with_scene(sphere)
+    }
+
+    fn power(&self) -> f64 {
+        UniformEnvironment::power(self)
+    }
+
+    fn spectrum(&self) -> Option<&Spectrum> {
+        Some(UniformEnvironment::spectrum(self))
+    }
+
+    #[inline]
+    fn sample_li(&self, _: Vec3, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
+        UniformEnvironment::sample_li(self, u, wl)
+    }
+
+    /// Only escaped rays (no point on the light) find it.
+    #[inline]
+    fn pdf_li(&self, _: Vec3, _: Vec3, p_light: Option<Vec3>) -> f32 {
+        match p_light {
+            None => UniformEnvironment::pdf_li(self),
+            Some(_) => 0.0,
+        }
+    }
+
+    #[inline]
+    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    #[inline]
+    fn le(&self, _: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        UniformEnvironment::le(self, wl)
+    }
+
+    fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        UniformEnvironment::sample_le(self, u_pos, u_dir, wl)
+    }
+
+    fn pdf_le(&self, _: Vec3) -> (f32, f32) {
+        UniformEnvironment::pdf_le(self)
     }
 }

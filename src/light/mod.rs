@@ -1,7 +1,8 @@
 //! Lights: what emits, how to sample a point or a ray on it, and which one
-//! to pick. Every light is a variant of [`Light`]; integrators use only its
-//! methods and [`LightSet`], so adding a light (point, spot, environment)
-//! touches this folder alone.
+//! to pick. Every light implements [`LightSource`] whole and is a line of
+//! the `lights!` list, which makes the [`Light`] enum; integrators use only
+//! its methods and [`LightSet`], so adding a light (point, spot,
+//! environment) touches this folder alone.
 //!
 //! - `sample_li` / `pdf_li`: light arriving at a point (next-event
 //!   estimation), with its solid-angle density.
@@ -186,10 +187,174 @@ pub struct LightLeSample {
     pub pdf_dir: f32,
 }
 
-/// Every kind of light. Adding one: a module with its type, a variant
-/// here, and its arm in each method below.
-#[derive(Clone, Debug)]
-pub enum Light {
+/// What every kind of light answers, whole: the compiler refuses a light
+/// that leaves a method out, so none answers zero by omission. A light
+/// that a ray cannot hit says so in `pdf_li`, `l` and `le` itself.
+pub trait LightSource {
+    /// A Dirac delta in position or direction (point, spot, directional):
+    /// never hit by a ray, sampled by next-event estimation only.
+    fn is_delta(&self) -> bool;
+
+    /// At infinity: escaped rays would see it (`le`), and it must know the
+    /// scene's bounds (`with_scene_bounds`).
+    fn is_infinite(&self) -> bool;
+
+    /// The light for a scene within `sphere` (lights at infinity start
+    /// their rays on its disc).
+    fn with_scene_bounds(self, sphere: SceneSphere) -> Self
+    where
+        Self: Sized;
+
+    /// Relative power, for the selection distribution.
+    fn power(&self) -> f64;
+
+    /// The shape of the light's emission over wavelength, where one
+    /// spectrum describes it (an image's D65, which every texel's colour
+    /// multiplies); None for the sky model, which counts as flat. (Its
+    /// integrated radiance was tried: the sunset's sun outweighs its sky by
+    /// power, yet the image shows the sky, and blue's variance tripled.)
+    fn spectrum(&self) -> Option<&Spectrum>;
+
+    /// Light arriving at `p_ref` from a point or direction of the light
+    /// drawn with `u` (next-event estimation).
+    fn sample_li(
+        &self,
+        p_ref: Vec3,
+        u: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLiSample>;
+
+    /// Solid-angle density of `sample_li` from `p_ref` along `wi` (unit),
+    /// which meets the light at `p_light` (None: the ray escaped the scene,
+    /// as it does for lights at infinity). Zero for delta lights: no ray
+    /// finds them.
+    fn pdf_li(&self, p_ref: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32;
+
+    /// Radiance a surface light sends towards `w` (unit, away from the
+    /// light) from a point with texture coordinates `uv`.
+    fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum;
+
+    /// Radiance arriving along an escaped ray of direction `dir` from a
+    /// light at infinity that has extent (a directional light has none).
+    fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum;
+
+    /// A ray leaving the light, for paths that start at lights.
+    fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample>;
+
+    /// (per-area, per-solid-angle) densities of `sample_le` for a ray
+    /// leaving in `dir` (0 for the delta part of a delta light).
+    fn pdf_le(&self, dir: Vec3) -> (f32, f32);
+}
+
+/// The list of lights: each line a variant of [`Light`] with the type that
+/// implements [`LightSource`]. `Light` answers every method by its
+/// variant's, so a new light is its module and one line here.
+macro_rules! lights {
+    ($($(#[doc = $doc:literal])* $variant:ident($ty:ty),)*) => {
+        /// Every kind of light.
+        #[derive(Clone, Debug)]
+        pub enum Light {
+            $($(#[doc = $doc])* $variant($ty),)*
+        }
+
+        impl Light {
+            /// The light's own answers.
+            #[inline]
+            fn source(&self) -> &dyn LightSource {
+                match self {
+                    $(Light::$variant(l) => l,)*
+                }
+            }
+        }
+
+        impl LightSource for Light {
+            #[inline]
+            fn is_delta(&self) -> bool {
+                match self {
+                    $(Light::$variant(l) => LightSource::is_delta(l),)*
+                }
+            }
+
+            #[inline]
+            fn is_infinite(&self) -> bool {
+                match self {
+                    $(Light::$variant(l) => LightSource::is_infinite(l),)*
+                }
+            }
+
+            fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
+                match self {
+                    $(Light::$variant(l) => Light::$variant(LightSource::with_scene_bounds(l, sphere)),)*
+                }
+            }
+
+            fn power(&self) -> f64 {
+                self.source().power()
+            }
+
+            fn spectrum(&self) -> Option<&Spectrum> {
+                self.source().spectrum()
+            }
+
+            #[inline]
+            fn sample_li(
+                &self,
+                p_ref: Vec3,
+                u: (f32, f32),
+                wl: &SampledWavelengths,
+            ) -> Option<LightLiSample> {
+                match self {
+                    $(Light::$variant(l) => LightSource::sample_li(l, p_ref, u, wl),)*
+                }
+            }
+
+            #[inline]
+            fn pdf_li(&self, p_ref: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
+                match self {
+                    $(Light::$variant(l) => LightSource::pdf_li(l, p_ref, wi, p_light),)*
+                }
+            }
+
+            #[inline]
+            fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+                match self {
+                    $(Light::$variant(l) => LightSource::l(l, uv, w, wl),)*
+                }
+            }
+
+            #[inline]
+            fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+                match self {
+                    $(Light::$variant(l) => LightSource::le(l, dir, wl),)*
+                }
+            }
+
+            fn sample_le(
+                &self,
+                u_pos: (f32, f32),
+                u_dir: (f32, f32),
+                wl: &SampledWavelengths,
+            ) -> Option<LightLeSample> {
+                match self {
+                    $(Light::$variant(l) => LightSource::sample_le(l, u_pos, u_dir, wl),)*
+                }
+            }
+
+            fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+                match self {
+                    $(Light::$variant(l) => LightSource::pdf_le(l, dir),)*
+                }
+            }
+        }
+    };
+}
+
+lights! {
     /// An emissive triangle.
     Area(AreaLight),
     /// A point or spot light.
@@ -203,171 +368,6 @@ pub enum Light {
     Sky(Sky),
     /// The Hosek–Wilkie sun: a small disc at infinity.
     Sun(Sun),
-}
-
-impl Light {
-    /// A Dirac delta in position or direction (point, spot, directional):
-    /// never hit by a ray, sampled by next-event estimation only.
-    #[inline]
-    pub fn is_delta(&self) -> bool {
-        match self {
-            Light::Area(_)
-            | Light::Environment(_)
-            | Light::EnvironmentMap(_)
-            | Light::Sky(_)
-            | Light::Sun(_) => false,
-            Light::Point(_) | Light::Directional(_) => true,
-        }
-    }
-
-    /// At infinity: escaped rays would see it (`le`), and it must know the
-    /// scene's bounds (`with_scene_bounds`).
-    #[inline]
-    pub fn is_infinite(&self) -> bool {
-        matches!(
-            self,
-            Light::Directional(_)
-                | Light::Environment(_)
-                | Light::EnvironmentMap(_)
-                | Light::Sky(_)
-                | Light::Sun(_)
-        )
-    }
-
-    /// The light for a scene within `sphere`.
-    pub fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
-        match self {
-            Light::Directional(l) => Light::Directional(l.with_scene(sphere)),
-            Light::Environment(l) => Light::Environment(l.with_scene(sphere)),
-            Light::EnvironmentMap(l) => Light::EnvironmentMap(l.with_scene(sphere)),
-            Light::Sky(l) => Light::Sky(l.with_scene(sphere)),
-            Light::Sun(l) => Light::Sun(l.with_scene(sphere)),
-            other => other,
-        }
-    }
-
-    /// Relative power, for the selection distribution.
-    pub fn power(&self) -> f64 {
-        match self {
-            Light::Area(l) => l.power(),
-            Light::Point(l) => l.power(),
-            Light::Directional(l) => l.power(),
-            Light::Environment(l) => l.power(),
-            Light::EnvironmentMap(l) => l.power(),
-            Light::Sky(l) => l.power(),
-            Light::Sun(l) => l.power(),
-        }
-    }
-
-    /// The shape of the light's emission over wavelength, where one
-    /// spectrum describes it (an image's D65, which every texel's colour
-    /// multiplies); None for the sky model, which counts as flat. (Its
-    /// integrated radiance was tried: the sunset's sun outweighs its sky by
-    /// power, yet the image shows the sky, and blue's variance tripled.)
-    pub fn spectrum(&self) -> Option<&Spectrum> {
-        match self {
-            Light::Area(l) => Some(l.spectrum()),
-            Light::Point(l) => Some(l.spectrum()),
-            Light::Directional(l) => Some(l.spectrum()),
-            Light::Environment(l) => Some(l.spectrum()),
-            Light::EnvironmentMap(l) => Some(l.spectrum()),
-            Light::Sky(_) | Light::Sun(_) => None,
-        }
-    }
-
-    #[inline]
-    pub fn sample_li(
-        &self,
-        p_ref: Vec3,
-        u: (f32, f32),
-        wl: &SampledWavelengths,
-    ) -> Option<LightLiSample> {
-        match self {
-            Light::Area(l) => l.sample_li(p_ref, u, wl),
-            Light::Point(l) => l.sample_li(p_ref, wl),
-            Light::Directional(l) => l.sample_li(wl),
-            Light::Environment(l) => l.sample_li(u, wl),
-            Light::EnvironmentMap(l) => l.sample_li(u, wl),
-            Light::Sky(l) => l.sample_li(u, wl),
-            Light::Sun(l) => l.sample_li(u, wl),
-        }
-    }
-
-    /// Solid-angle density of `sample_li` from `p_ref` along `wi` (unit),
-    /// which meets the light at `p_light` (None: the ray escaped the scene,
-    /// as it does for lights at infinity). Zero for delta lights: no ray
-    /// finds them.
-    #[inline]
-    pub fn pdf_li(&self, p_ref: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
-        match (self, p_light) {
-            (Light::Area(l), Some(p)) => l.pdf_li(p_ref, p),
-            (Light::Environment(l), None) => l.pdf_li(),
-            (Light::EnvironmentMap(l), None) => l.pdf_li(wi),
-            (Light::Sky(l), None) => l.pdf_li(wi),
-            (Light::Sun(l), None) => l.pdf_li(wi),
-            _ => 0.0,
-        }
-    }
-
-    /// Radiance a surface light sends towards `w` (unit, away from the
-    /// light) from a point with texture coordinates `uv`.
-    #[inline]
-    pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        match self {
-            Light::Area(l) => l.l(uv, w, wl),
-            Light::Point(_)
-            | Light::Directional(_)
-            | Light::Environment(_)
-            | Light::EnvironmentMap(_)
-            | Light::Sky(_)
-            | Light::Sun(_) => SampledSpectrum::ZERO,
-        }
-    }
-
-    /// Radiance arriving along an escaped ray of direction `dir` from a
-    /// light at infinity that has extent (a directional light has none).
-    #[inline]
-    pub fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        match self {
-            Light::Environment(l) => l.le(wl),
-            // `dir` travels away from the scene: the sky seen that way.
-            Light::EnvironmentMap(l) => l.radiance(dir, wl),
-            Light::Sky(l) => l.radiance(dir, wl),
-            Light::Sun(l) => l.radiance(dir, wl),
-            _ => SampledSpectrum::ZERO,
-        }
-    }
-
-    pub fn sample_le(
-        &self,
-        u_pos: (f32, f32),
-        u_dir: (f32, f32),
-        wl: &SampledWavelengths,
-    ) -> Option<LightLeSample> {
-        match self {
-            Light::Area(l) => l.sample_le(u_pos, u_dir, wl),
-            Light::Point(l) => l.sample_le(u_dir, wl),
-            Light::Directional(l) => l.sample_le(u_pos, wl),
-            Light::Environment(l) => l.sample_le(u_pos, u_dir, wl),
-            Light::EnvironmentMap(l) => l.sample_le(u_pos, u_dir, wl),
-            Light::Sky(l) => l.sample_le(u_pos, u_dir, wl),
-            Light::Sun(l) => l.sample_le(u_pos, u_dir, wl),
-        }
-    }
-
-    /// (per-area, per-solid-angle) densities of `sample_le` for a ray
-    /// leaving in `dir` (0 for the delta part of a delta light).
-    pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
-        match self {
-            Light::Area(l) => l.pdf_le(dir),
-            Light::Point(l) => l.pdf_le(dir),
-            Light::Directional(l) => l.pdf_le(),
-            Light::Environment(l) => l.pdf_le(),
-            Light::EnvironmentMap(l) => l.pdf_le(dir),
-            Light::Sky(l) => l.pdf_le(dir),
-            Light::Sun(l) => l.pdf_le(dir),
-        }
-    }
 }
 
 /// The scene's lights and the distribution that picks one to sample.

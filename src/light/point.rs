@@ -8,7 +8,7 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::{LightLeSample, LightLiSample, LightPoint};
+use super::{LightLeSample, LightLiSample, LightPoint, LightSource, SceneSphere};
 use crate::geometry::Frame;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 
@@ -162,4 +162,66 @@ pub(super) fn sphere_direction(z: f32, u: f32) -> Vec3 {
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * u;
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// What the light must answer whole: see `LightSource` (light/mod.rs).
+impl LightSource for PointLight {
+    fn is_delta(&self) -> bool {
+        true
+    }
+
+    fn is_infinite(&self) -> bool {
+        false
+    }
+
+    fn with_scene_bounds(self, _: SceneSphere) -> Self {
+        self
+    }
+
+    fn power(&self) -> f64 {
+        PointLight::power(self)
+    }
+
+    fn spectrum(&self) -> Option<&Spectrum> {
+        Some(PointLight::spectrum(self))
+    }
+
+    #[inline]
+    fn sample_li(
+        &self,
+        p_ref: Vec3,
+        _: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLiSample> {
+        PointLight::sample_li(self, p_ref, wl)
+    }
+
+    /// No ray finds a point.
+    #[inline]
+    fn pdf_li(&self, _: Vec3, _: Vec3, _: Option<Vec3>) -> f32 {
+        0.0
+    }
+
+    #[inline]
+    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    #[inline]
+    fn le(&self, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    fn sample_le(
+        &self,
+        _: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        PointLight::sample_le(self, u_dir, wl)
+    }
+
+    fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        PointLight::pdf_le(self, dir)
+    }
 }

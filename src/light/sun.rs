@@ -11,12 +11,12 @@
 use std::f32::consts::PI;
 use std::sync::Arc;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::hosek_wilkie::{band_weights, SkyModel, BANDS, SUN_DIAMETER_DEGREES};
-use super::{LightLeSample, LightLiSample, SceneSphere};
+use super::{LightLeSample, LightLiSample, LightSource, SceneSphere};
 use crate::geometry::Frame;
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
 #[derive(Clone, Debug)]
 pub struct Sun {
@@ -175,6 +175,68 @@ impl Sun {
     /// Densities of `sample_le` for a ray travelling along `dir`.
     pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
         (self.scene.disc_pdf(), self.pdf_li(-dir))
+    }
+}
+
+/// What the light must answer whole: see `LightSource` (light/mod.rs).
+impl LightSource for Sun {
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    fn is_infinite(&self) -> bool {
+        true
+    }
+
+    fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
+        self.with_scene(sphere)
+    }
+
+    fn power(&self) -> f64 {
+        Sun::power(self)
+    }
+
+    /// The sky model's spectrum varies over the dome: it counts as flat.
+    fn spectrum(&self) -> Option<&Spectrum> {
+        None
+    }
+
+    #[inline]
+    fn sample_li(&self, _: Vec3, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
+        Sun::sample_li(self, u, wl)
+    }
+
+    /// Only escaped rays (no point on the light) find it.
+    #[inline]
+    fn pdf_li(&self, _: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
+        match p_light {
+            None => Sun::pdf_li(self, wi),
+            Some(_) => 0.0,
+        }
+    }
+
+    #[inline]
+    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
+        SampledSpectrum::ZERO
+    }
+
+    /// `dir` travels away from the scene: the light seen that way.
+    #[inline]
+    fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        self.radiance(dir, wl)
+    }
+
+    fn sample_le(
+        &self,
+        u_pos: (f32, f32),
+        u_dir: (f32, f32),
+        wl: &SampledWavelengths,
+    ) -> Option<LightLeSample> {
+        Sun::sample_le(self, u_pos, u_dir, wl)
+    }
+
+    fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        Sun::pdf_le(self, dir)
     }
 }
 

@@ -14,6 +14,7 @@ pub use mesh::Mesh;
 use crate::camera::Camera;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
+use crate::light::LightSource;
 use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
 use crate::material::{Cutout, Material};
 use crate::medium::Medium;
