@@ -82,7 +82,7 @@ impl Loader {
                     }
                 }
                 ShapeKind::Quad | ShapeKind::Sphere => {
-                    let mut mesh = self.mesh(shape, &key)?;
+                    let mut mesh = self.built_in_mesh(shape, &key)?;
                     self.place(&mut mesh, shape, &key)?;
                     self.hold_mesh(&key, &mesh)?;
                     shapes.push(ShapeInstance {
@@ -303,45 +303,54 @@ impl Loader {
         self.only_keys(key, &kind, &given, allowed)
     }
 
-    /// The mesh of a built-in shape (quad or sphere).
-    pub(super) fn mesh(&self, shape: &ShapeSpec, key: &str) -> Result<Mesh, SceneError> {
+    /// The mesh of a built-in shape: a quad or a sphere.
+    fn built_in_mesh(&self, shape: &ShapeSpec, key: &str) -> Result<Mesh, SceneError> {
         let missing = |name: &str| {
             self.error(format!(
                 "`{key}`: a shape of type {:?} needs `{name}`",
                 shape.kind
             ))
         };
-        Ok(match shape.kind {
+        match shape.kind {
             ShapeKind::Quad => {
                 self.only(shape, key, &["vertices"])?;
                 let v = shape.vertices.ok_or_else(|| missing("vertices"))?;
-                Mesh::quad(v.map(Vec3::from))
+                Ok(Mesh::quad(v.map(Vec3::from)))
             }
-            _ => {
+            ShapeKind::Sphere => {
                 self.only(shape, key, &["center", "radius", "segments", "smooth"])?;
                 let r = shape.radius.ok_or_else(|| missing("radius"))?;
-                if !(r > 0.0) {
-                    return Err(self.error(format!("`{key}.radius` must be positive")));
-                }
-                let segments = shape.segments.unwrap_or(64);
-                if !(3..=MAX_SPHERE_SEGMENTS).contains(&segments) {
-                    return Err(self.error(format!(
-                        "`{key}.segments` must be between 3 and {MAX_SPHERE_SEGMENTS}, found {segments}"
-                    )));
-                }
-                crate::memory::check(
-                    &format!("`{key}` ({segments} segments)"),
-                    Mesh::sphere_bytes(segments),
-                )
-                .map_err(|e| self.error(e))?;
-                Mesh::sphere(
-                    Vec3::from(shape.center.unwrap_or([0.0; 3])),
-                    r,
-                    segments,
-                    shape.smooth.unwrap_or(true),
-                )
+                self.sphere_mesh(shape, key, r)
             }
-        })
+            ShapeKind::Obj | ShapeKind::Gltf => Err(self.error(format!(
+                "`{key}`: a shape of type {:?} is read from its file",
+                shape.kind
+            ))),
+        }
+    }
+
+    /// A sphere of radius `r` as a triangle mesh.
+    fn sphere_mesh(&self, shape: &ShapeSpec, key: &str, r: f32) -> Result<Mesh, SceneError> {
+        if !(r > 0.0) {
+            return Err(self.error(format!("`{key}.radius` must be positive")));
+        }
+        let segments = shape.segments.unwrap_or(64);
+        if !(3..=MAX_SPHERE_SEGMENTS).contains(&segments) {
+            return Err(self.error(format!(
+                "`{key}.segments` must be between 3 and {MAX_SPHERE_SEGMENTS}, found {segments}"
+            )));
+        }
+        crate::memory::check(
+            &format!("`{key}` ({segments} segments)"),
+            Mesh::sphere_bytes(segments),
+        )
+        .map_err(|e| self.error(e))?;
+        Ok(Mesh::sphere(
+            Vec3::from(shape.center.unwrap_or([0.0; 3])),
+            r,
+            segments,
+            shape.smooth.unwrap_or(true),
+        ))
     }
 
     pub(super) fn transform(&self, t: &TransformSpec, key: &str) -> Result<Mat4, SceneError> {
