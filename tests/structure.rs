@@ -159,6 +159,23 @@ fn functions(text: &str) -> Vec<(String, usize)> {
             .chars()
             .take_while(|c| c.is_alphanumeric() || *c == '_')
             .collect();
+        // A declaration without a body (a trait's) ends with `;` before any `{`.
+        let body = lines[i..]
+            .iter()
+            .find_map(|l| {
+                let l = l.split("//").next().unwrap_or("");
+                if l.contains('{') {
+                    Some(true)
+                } else if l.trim_end().ends_with(';') {
+                    Some(false)
+                } else {
+                    None
+                }
+            })
+            .unwrap_or(false);
+        if !body {
+            continue;
+        }
         let close = format!("{indent}}}");
         if let Some(end) = lines[i..].iter().position(|l| *l == close) {
             out.push((name, end + 1));
