@@ -90,6 +90,7 @@ fn terrain(mesh: Mesh) -> Scene {
             emission: None,
         }],
         Vec::new(),
+        Vec::new(),
     )
 }
 

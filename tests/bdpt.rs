@@ -109,7 +109,7 @@ fn bdpt_white_furnace() {
          [film]\nresolution = [8, 8]\n\
          [integrator]\ntype = \"bdpt\"\nmax_depth = 100000\n\
          [materials.wall]\ntype = \"diffuse\"\nreflectance = {albedo}\n\
-         [[shape]]\ntype = \"sphere\"\nradius = 1\nsegments = 24\nsmooth = false\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\ntessellate = true\nsegments = 24\nsmooth = false\n\
          flip_normals = true\nmaterial = \"wall\"\nemission = {emission}\n"
     ));
     let blocks = block_estimates(&s, 32, 16);
@@ -208,6 +208,7 @@ material = "floor"
 type = "sphere"
 center = [0, 0.6, 0]
 radius = 0.6
+tessellate = true
 segments = 64
 material = "glass"
 [[shape]]

@@ -404,7 +404,7 @@ fn memory_bombs_are_refused_before_allocation() {
     let mut spheres = SCENE.to_string();
     for i in 0..12 {
         spheres += &format!(
-            "[[shape]]\ntype = \"sphere\"\ncenter = [{i}, 0, 0]\nradius = 0.1\nsegments = 4096\n"
+            "[[shape]]\ntype = \"sphere\"\ncenter = [{i}, 0, 0]\nradius = 0.1\ntessellate = true\nsegments = 4096\n"
         );
     }
     std::fs::write(d.join("spheres.toml"), spheres).unwrap();

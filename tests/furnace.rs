@@ -133,7 +133,7 @@ fn constant_environment_furnace() {
              [film]\nresolution = [24, 24]\nspp = 64\n\
              [integrator]\n{integrator}\n\
              [materials.m]\ntype = \"diffuse\"\nreflectance = {albedo}\n\
-             [[shape]]\ntype = \"sphere\"\nradius = 1\nsegments = 96\nmaterial = \"m\"\n\
+             [[shape]]\ntype = \"sphere\"\nradius = 1\ntessellate = true\nsegments = 96\nmaterial = \"m\"\n\
              [environment]\nradiance = {radiance}\n"
         )
     };

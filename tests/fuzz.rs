@@ -49,6 +49,7 @@ material = "white"
 type = "sphere"
 center = [0, 1, 0]
 radius = 0.5
+tessellate = true
 segments = 16
 material = "glass"
 transform = { scale = 1.5, rotate = { axis = [0, 1, 0], degrees = 30 }, translate = [0, 0.1, 0] }
@@ -95,6 +96,7 @@ const TOKENS: &[&str] = &[
     "spp",
     "resolution",
     "segments",
+    "tessellate",
     "radius",
     "file",
     "\"missing.obj\"",

@@ -100,7 +100,7 @@ fn thin_shell_does_not_leak_light() {
 fn camera_inside_a_closed_mesh_sees_no_outside_light() {
     let s = scene(&format!(
         "[camera]\nposition = [0.1, 0.2, 0]\nlook_at = [0, 0, 1]\nfov = 150\n[film]\nresolution = [16, 16]\nspp = 16\n{MATERIALS}\
-         [[shape]]\ntype = \"sphere\"\nradius = 1\nsegments = 32\nmaterial = \"white\"\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\ntessellate = true\nsegments = 32\nmaterial = \"white\"\n\
          [[shape]]\ntype = \"quad\"\nvertices = [[-3, 3, -3], [3, 3, -3], [3, 3, 3], [-3, 3, 3]]\nemission = 50\ntwo_sided = true\n"
     ));
     let (film, _) = render_checked(&s);
@@ -228,7 +228,7 @@ fn tiny_bright_light_matches_its_closed_form() {
         "[camera]\nposition = [0, 2, -2]\nlook_at = [0, 0, 0]\n[film]\nmax_depth = 1\n\
          [materials.floor]\ntype = \"diffuse\"\nreflectance = 0.5\n\
          [[shape]]\ntype = \"quad\"\nvertices = [[-5, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]\nmaterial = \"floor\"\n\
-         [[shape]]\ntype = \"sphere\"\ncenter = [0, 1, 0]\nradius = 1e-3\nsegments = 256\nemission = 1e7\n",
+         [[shape]]\ntype = \"sphere\"\ncenter = [0, 1, 0]\nradius = 1e-3\ntessellate = true\nsegments = 256\nemission = 1e7\n",
     );
     let n = 20_000u64;
     let (mut sum, mut sq) = (0.0, 0.0);
@@ -296,7 +296,7 @@ fn deep_nesting_overflows_are_counted_not_a_panic() {
     );
     for i in 0..10 {
         text += &format!(
-            "[materials.g{i}]\ntype = \"dielectric\"\nior = 1.2\n[[shape]]\ntype = \"sphere\"\nradius = {}\nsegments = 16\nmaterial = \"g{i}\"\n",
+            "[materials.g{i}]\ntype = \"dielectric\"\nior = 1.2\n[[shape]]\ntype = \"sphere\"\nradius = {}\ntessellate = true\nsegments = 16\nmaterial = \"g{i}\"\n",
             2.0 - 0.15 * i as f64
         );
     }

@@ -6,6 +6,7 @@ pub mod frame;
 pub mod huge_pages;
 pub mod lanes;
 pub mod offset;
+pub mod sphere;
 pub mod triangle;
 pub mod triangle4;
 

@@ -244,7 +244,7 @@ impl Vertex {
             if !(d2 > 0.0) {
                 return 0.0;
             }
-            scene.lights.get(i).pdf_le(w).1 / d2
+            scene.lights.get(i).pdf_le(self.uv, w).1 / d2
         };
         if next.on_surface() {
             pdf *= next.ng.dot(w).abs();
@@ -261,7 +261,7 @@ impl Vertex {
             return infinite_density(scene, next.p, -w);
         }
         let Some(i) = self.light else { return 0.0 };
-        scene.lights.pmf(i) * scene.lights.get(i).pdf_le(w).0
+        scene.lights.pmf(i) * scene.lights.get(i).pdf_le(self.uv, w).0
     }
 
     /// Radiance this light vertex sends towards `to`.

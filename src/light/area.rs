@@ -264,7 +264,7 @@ impl LightSource for AreaLight {
         AreaLight::sample_le(self, u_pos, u_dir, wl)
     }
 
-    fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+    fn pdf_le(&self, _: Vec2, dir: Vec3) -> (f32, f32) {
         AreaLight::pdf_le(self, dir)
     }
 }

@@ -115,7 +115,7 @@ impl LightSource for DirectionalLight {
         DirectionalLight::sample_le(self, u_pos, wl)
     }
 
-    fn pdf_le(&self, _: Vec3) -> (f32, f32) {
+    fn pdf_le(&self, _: Vec2, _: Vec3) -> (f32, f32) {
         DirectionalLight::pdf_le(self)
     }
 }

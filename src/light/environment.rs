@@ -133,7 +133,7 @@ impl LightSource for UniformEnvironment {
         UniformEnvironment::sample_le(self, u_pos, u_dir, wl)
     }
 
-    fn pdf_le(&self, _: Vec3) -> (f32, f32) {
+    fn pdf_le(&self, _: Vec2, _: Vec3) -> (f32, f32) {
         UniformEnvironment::pdf_le(self)
     }
 }

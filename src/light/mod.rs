@@ -22,6 +22,7 @@ mod point;
 mod selection;
 mod set;
 mod sky;
+mod sphere;
 mod sun;
 
 use std::f32::consts::PI;
@@ -37,6 +38,7 @@ pub use point::{Cone, PointLight};
 pub use selection::PowerSelection;
 pub use set::LightSet;
 pub use sky::Sky;
+pub use sphere::SphereLight;
 pub use sun::Sun;
 
 use crate::geometry::Frame;
@@ -249,8 +251,9 @@ pub trait LightSource {
     ) -> Option<LightLeSample>;
 
     /// (per-area, per-solid-angle) densities of `sample_le` for a ray
-    /// leaving in `dir` (0 for the delta part of a delta light).
-    fn pdf_le(&self, dir: Vec3) -> (f32, f32);
+    /// leaving in `dir` from its point of texture coordinates `uv` (0 for
+    /// the delta part of a delta light).
+    fn pdf_le(&self, uv: Vec2, dir: Vec3) -> (f32, f32);
 }
 
 /// The list of lights: each line a variant of [`Light`] with the type that
@@ -347,9 +350,9 @@ macro_rules! lights {
                 }
             }
 
-            fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+            fn pdf_le(&self, uv: Vec2, dir: Vec3) -> (f32, f32) {
                 match self {
-                    $(Light::$variant(l) => LightSource::pdf_le(l, dir),)*
+                    $(Light::$variant(l) => LightSource::pdf_le(l, uv, dir),)*
                 }
             }
         }
@@ -370,6 +373,8 @@ lights! {
     Sky(Sky),
     /// The Hosek–Wilkie sun: a small disc at infinity.
     Sun(Sun),
+    /// An emissive exact sphere.
+    Sphere(SphereLight),
 }
 
 #[cfg(test)]
@@ -532,7 +537,7 @@ mod tests {
             let (mut back, mut cos_mean) = (0, 0.0f64);
             for _ in 0..n {
                 let smp = light.sample_le(s.next_2d(), s.next_2d(), &wl).unwrap();
-                let (pdf_pos, pdf_dir) = light.pdf_le(smp.dir);
+                let (pdf_pos, pdf_dir) = light.pdf_le(Vec2::ZERO, smp.dir);
                 assert_eq!((pdf_pos, pdf_dir), (smp.pdf_pos, smp.pdf_dir));
                 assert_eq!(smp.le, SampledSpectrum::splat(2.0));
                 back += (smp.dir.z < 0.0) as u32;

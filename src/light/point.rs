@@ -221,7 +221,7 @@ impl LightSource for PointLight {
         PointLight::sample_le(self, u_dir, wl)
     }
 
-    fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+    fn pdf_le(&self, _: Vec2, dir: Vec3) -> (f32, f32) {
         PointLight::pdf_le(self, dir)
     }
 }

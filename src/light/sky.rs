@@ -197,7 +197,7 @@ impl LightSource for Sky {
         Sky::sample_le(self, u_pos, u_dir, wl)
     }
 
-    fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+    fn pdf_le(&self, _: Vec2, dir: Vec3) -> (f32, f32) {
         Sky::pdf_le(self, dir)
     }
 }

@@ -340,9 +340,11 @@ pub struct ShapeSpec {
     #[serde(default, deserialize_with = "exact::option")]
     pub center: Option<[f32; 3]>,
     pub radius: Option<f32>,
-    /// sphere: segments around the equator (default 64).
+    /// sphere: a triangle mesh instead of the exact sphere (default false).
+    pub tessellate: Option<bool>,
+    /// tessellated sphere: segments around the equator (default 64).
     pub segments: Option<u32>,
-    /// sphere, obj, gltf: interpolate vertex normals (default true).
+    /// tessellated sphere, obj, gltf: interpolate vertex normals (default true).
     pub smooth: Option<bool>,
 }
 

@@ -291,7 +291,8 @@ impl Loader {
         materials.push(Material::Diffuse {
             reflectance: Spectrum::Constant(0.5).into(),
         });
-        let shapes = self.shapes(&file, &material_index, &mut materials, default_material)?;
+        let (shapes, spheres) =
+            self.shapes(&file, &material_index, &mut materials, default_material)?;
         // Imported assets give media per metre (glTF's unit): per scene unit.
         let units = self.units(&file)?;
         for m in &mut materials[default_material as usize + 1..] {
@@ -310,7 +311,7 @@ impl Loader {
         )
         .map_err(|e| self.error(e))?;
         let load_peak = crate::memory::held() + build;
-        let scene = Scene::build(camera, materials, shapes, lights)
+        let scene = Scene::build(camera, materials, shapes, spheres, lights)
             .with_world_medium(world_medium)
             .with_cutouts(self.cutouts.take());
         if scene.lights.is_empty() {

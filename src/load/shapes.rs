@@ -9,11 +9,12 @@ use glam::{Mat4, Quat, Vec3};
 
 use super::spectra::Role;
 use super::{list, AssetMaterialSlots, Loader, MAX_COORDINATE};
+use crate::geometry::sphere::Sphere;
 use crate::load::format::{ScaleSpec, SceneFile, ShapeKind, ShapeSpec, TransformSpec};
 use crate::load::import::{self, Asset};
 use crate::load::SceneError;
 use crate::material::Material;
-use crate::scene::{Emission, Mesh, ShapeInstance};
+use crate::scene::{Emission, Mesh, ShapeInstance, SphereInstance};
 
 /// Finest built-in sphere tessellation accepted.
 const MAX_SPHERE_SEGMENTS: u32 = 4096;
@@ -26,8 +27,9 @@ impl Loader {
         material_index: &BTreeMap<String, u32>,
         materials: &mut Vec<Material>,
         default_material: u32,
-    ) -> Result<Vec<ShapeInstance>, SceneError> {
+    ) -> Result<(Vec<ShapeInstance>, Vec<SphereInstance>), SceneError> {
         let mut shapes = Vec::new();
+        let mut spheres = Vec::new();
         let mut slots = AssetMaterialSlots::new();
         for (i, shape) in file.shapes.iter().enumerate() {
             let key = format!("shape[{i}]");
@@ -81,6 +83,14 @@ impl Loader {
                         });
                     }
                 }
+                ShapeKind::Sphere if shape.tessellate != Some(true) => {
+                    spheres.push(SphereInstance {
+                        sphere: self.exact_sphere(shape, &key)?,
+                        material: material.unwrap_or(default_material),
+                        emission,
+                        inward: shape.flip_normals,
+                    });
+                }
                 ShapeKind::Quad | ShapeKind::Sphere => {
                     let mut mesh = self.built_in_mesh(shape, &key)?;
                     self.place(&mut mesh, shape, &key)?;
@@ -93,7 +103,53 @@ impl Loader {
                 }
             }
         }
-        Ok(shapes)
+        Ok((shapes, spheres))
+    }
+
+    /// An exact sphere: its centre and radius placed by the shape's
+    /// transform, which must keep it a sphere (rotation, uniform scale,
+    /// translation).
+    fn exact_sphere(&self, shape: &ShapeSpec, key: &str) -> Result<Sphere, SceneError> {
+        let kind = "an exact sphere (`tessellate = true` makes a triangle mesh, which takes `segments` and `smooth`)";
+        let given = self.given_keys(shape);
+        self.only_keys(key, kind, &given, &["center", "radius", "tessellate"])?;
+        let Some(r) = shape.radius else {
+            return Err(self.error(format!("`{key}`: a sphere needs `radius`")));
+        };
+        if !(r > 0.0 && r.is_finite()) {
+            return Err(self.error(format!("`{key}.radius` must be positive")));
+        }
+        let mut sphere = Sphere::new(Vec3::from(shape.center.unwrap_or([0.0; 3])), r);
+        if let Some(t) = &shape.transform {
+            let m = self.transform(t, key)?;
+            let linear = glam::Mat3::from_mat4(m);
+            let scale = linear.x_axis.length();
+            let similar = [linear.y_axis, linear.z_axis]
+                .iter()
+                .all(|a| (a.length() - scale).abs() <= 1e-4 * scale)
+                && linear.x_axis.dot(linear.y_axis).abs() <= 1e-4 * scale * scale
+                && linear.x_axis.dot(linear.z_axis).abs() <= 1e-4 * scale * scale
+                && linear.y_axis.dot(linear.z_axis).abs() <= 1e-4 * scale * scale;
+            if !similar {
+                return Err(self.error(format!(
+                    "`{key}.transform` does not keep a sphere round (it scales unevenly or shears): \
+                     give `tessellate = true` for an ellipsoid mesh"
+                )));
+            }
+            sphere = Sphere {
+                centre: m.transform_point3(sphere.centre),
+                radius: r * scale,
+                rotation: linear * (1.0 / scale),
+            };
+        }
+        let reach = sphere.centre.abs().max_element() + sphere.radius;
+        if !(reach <= MAX_COORDINATE) {
+            return Err(self.error(format!(
+                "`{key}` reaches ±{reach:e}, beyond ±{MAX_COORDINATE:e}, the range of prism's \
+                 single-precision geometry (after the transform)"
+            )));
+        }
+        Ok(sphere)
     }
 
     /// Counts a mesh against the memory budget (until the scene is built).
@@ -289,7 +345,13 @@ impl Loader {
         key: &str,
         allowed: &[&str],
     ) -> Result<(), SceneError> {
-        let given = [
+        let kind = format!("a shape of type {:?}", shape.kind);
+        self.only_keys(key, &kind, &self.given_keys(shape), allowed)
+    }
+
+    /// Which of the keys that apply to some shape types only were given.
+    fn given_keys(&self, shape: &ShapeSpec) -> [(&'static str, bool); 9] {
+        [
             ("file", shape.file.is_some()),
             ("mesh", shape.mesh.is_some()),
             ("materials", shape.materials.is_some()),
@@ -298,9 +360,8 @@ impl Loader {
             ("radius", shape.radius.is_some()),
             ("segments", shape.segments.is_some()),
             ("smooth", shape.smooth.is_some()),
-        ];
-        let kind = format!("a shape of type {:?}", shape.kind);
-        self.only_keys(key, &kind, &given, allowed)
+            ("tessellate", shape.tessellate.is_some()),
+        ]
     }
 
     /// The mesh of a built-in shape: a quad or a sphere.
@@ -318,7 +379,11 @@ impl Loader {
                 Ok(Mesh::quad(v.map(Vec3::from)))
             }
             ShapeKind::Sphere => {
-                self.only(shape, key, &["center", "radius", "segments", "smooth"])?;
+                self.only(
+                    shape,
+                    key,
+                    &["center", "radius", "segments", "smooth", "tessellate"],
+                )?;
                 let r = shape.radius.ok_or_else(|| missing("radius"))?;
                 self.sphere_mesh(shape, key, r)
             }

@@ -13,9 +13,10 @@ pub use mesh::Mesh;
 
 use crate::camera::Camera;
 use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::sphere::{Sphere, SphereHit, SphereSet};
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
 use crate::light::LightSource;
-use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere};
+use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere, SphereLight};
 use crate::material::{Cutout, Material};
 use crate::medium::Medium;
 use crate::spectrum::{cie, Spectrum, WavelengthDistribution};
@@ -35,6 +36,25 @@ pub struct ShapeInstance {
     pub mesh: Mesh,
     pub material: u32,
     pub emission: Option<Emission>,
+}
+
+/// A resolved exact sphere: world-space, with its material, emission, and
+/// which face is the front.
+pub struct SphereInstance {
+    pub sphere: Sphere,
+    pub material: u32,
+    pub emission: Option<Emission>,
+    /// The front face (normal, emission) is the inside.
+    pub inward: bool,
+}
+
+/// What shading needs of a sphere.
+#[derive(Clone, Copy, Debug)]
+struct SphereShading {
+    material: u32,
+    /// Index into the light set, or `NO_LIGHT`.
+    light: u32,
+    inward: bool,
 }
 
 /// Per-triangle data that shading needs: where its vertices' attributes
@@ -90,6 +110,9 @@ pub struct Scene {
     /// The bounding sphere of the geometry, as lights at infinity see it.
     pub sphere: SceneSphere,
     bvh: Bvh,
+    /// Exact spheres, in a hierarchy of their own.
+    spheres: SphereSet,
+    sphere_shading: Vec<SphereShading>,
     /// Some material bounds a volume (paths then track the IOR stack).
     has_dielectrics: bool,
     /// The medium around everything (the stack empty), if any.
@@ -150,6 +173,54 @@ fn wavelength_distribution(lights: &LightSet) -> WavelengthDistribution {
     )
 }
 
+/// The sphere around `bounds` (none for an empty scene).
+fn bounding_sphere(bounds: Aabb, empty: bool) -> SceneSphere {
+    if empty {
+        return SceneSphere::default();
+    }
+    let centre = (bounds.min + bounds.max) * 0.5;
+    SceneSphere {
+        centre,
+        radius: (bounds.max - centre).length(),
+    }
+}
+
+/// The spheres' hierarchy and shading, with a light added to `lights` for
+/// each emitting sphere.
+fn sphere_lights(
+    spheres: &[SphereInstance],
+    lights: &mut Vec<Light>,
+) -> (SphereSet, Vec<SphereShading>) {
+    let set = SphereSet::new(&spheres.iter().map(|s| s.sphere).collect::<Vec<_>>());
+    let shading = spheres
+        .iter()
+        .map(|s| {
+            let light = match &s.emission {
+                Some(e) => {
+                    let emitter = Arc::new(Emitter {
+                        spectrum: e.spectrum.clone(),
+                        texture: e.texture.clone(),
+                    });
+                    lights.push(Light::Sphere(SphereLight::new(
+                        s.sphere,
+                        emitter,
+                        e.two_sided,
+                        s.inward,
+                    )));
+                    lights.len() as u32 - 1
+                }
+                None => NO_LIGHT,
+            };
+            SphereShading {
+                material: s.material,
+                light,
+                inward: s.inward,
+            }
+        })
+        .collect();
+    (set, shading)
+}
+
 /// Peak bytes a triangle costs while the scene is built: the imported mesh,
 /// the build's boxes and index lists, then the triangles, shading indices,
 /// vertex attributes and BVH nodes that stay (measured: 337 MiB peak for a
@@ -164,6 +235,7 @@ impl Scene {
         camera: Camera,
         materials: Vec<Material>,
         shapes: Vec<ShapeInstance>,
+        spheres: Vec<SphereInstance>,
         other_lights: Vec<Light>,
     ) -> Scene {
         let mut triangles = Vec::new();
@@ -243,16 +315,9 @@ impl Scene {
                 )));
             }
         }
-        let bounds = bvh.bounds();
-        let sphere = if triangles.is_empty() {
-            SceneSphere::default()
-        } else {
-            let centre = (bounds.min + bounds.max) * 0.5;
-            SceneSphere {
-                centre,
-                radius: (bounds.max - centre).length(),
-            }
-        };
+        let (sphere_set, sphere_shading) = sphere_lights(&spheres, &mut lights);
+        let empty = triangles.is_empty() && sphere_set.is_empty();
+        let sphere = bounding_sphere(bvh.bounds().union(sphere_set.bounds()), empty);
         lights.extend(
             other_lights
                 .into_iter()
@@ -273,6 +338,8 @@ impl Scene {
             lights,
             sphere,
             bvh,
+            spheres: sphere_set,
+            sphere_shading,
             triangles,
             shading,
             attributes,
@@ -290,6 +357,7 @@ impl Scene {
             + bytes(self.attributes.uvs.len(), 8)
             + bytes(self.attributes.tangents.len(), 16)
             + self.bvh.size_bytes() as u64
+            + self.spheres.size_bytes() as u64
             + bytes(self.lights.len(), std::mem::size_of::<Light>() + 16)
             + self.image_bytes
     }
@@ -358,7 +426,7 @@ impl Scene {
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.bvh.bounds()
+        self.bvh.bounds().union(self.spheres.bounds())
     }
 
     pub fn bvh(&self) -> &Bvh {
@@ -405,7 +473,14 @@ impl Scene {
     }
 
     fn closest_surface(&self, ray: &Ray) -> Option<SurfaceHit> {
-        let (prim, hit) = self.bvh.intersect(ray)?;
+        let triangle = self.bvh.intersect(ray);
+        if !self.spheres.is_empty() {
+            let t_max = triangle.as_ref().map_or(ray.t_max, |(_, h)| h.t);
+            if let Some((k, hit)) = self.spheres.intersect(ray, t_max) {
+                return Some(self.sphere_surface(k, &hit));
+            }
+        }
+        let (prim, hit) = triangle?;
         let tri = &self.triangles[prim as usize];
         let info = &self.shading[prim as usize];
         let [b0, b1, b2] = hit.b;
@@ -440,6 +515,32 @@ impl Scene {
         })
     }
 
+    /// The surface where sphere `k` is hit: its normals face the front.
+    fn sphere_surface(&self, k: u32, hit: &SphereHit) -> SurfaceHit {
+        let info = &self.sphere_shading[k as usize];
+        let (n, sign) = if info.inward {
+            (-hit.n, -1.0)
+        } else {
+            (hit.n, 1.0)
+        };
+        let tangent = if hit.dpdu.length_squared() > 0.0 {
+            hit.dpdu.normalize().extend(sign)
+        } else {
+            Vec4::ZERO
+        };
+        SurfaceHit {
+            t: hit.t,
+            p: hit.p,
+            p_err: hit.p_err,
+            ng: n,
+            ns: n,
+            uv: hit.uv,
+            tangent,
+            material: info.material,
+            light: (info.light != NO_LIGHT).then_some(info.light as usize),
+        }
+    }
+
     /// Texture coordinates on triangle `prim` at barycentrics (b1, b2).
     pub fn uv_at(&self, prim: u32, b: [f32; 2]) -> Vec2 {
         let info = &self.shading[prim as usize];
@@ -452,7 +553,7 @@ impl Scene {
 
     pub fn occluded(&self, ray: &Ray) -> bool {
         if self.cutouts.is_empty() {
-            self.bvh.occluded(ray)
+            self.bvh.occluded(ray) || self.spheres.occluded(ray)
         } else {
             self.intersect(ray).is_some()
         }

@@ -142,6 +142,7 @@ material = "gold"
 type = "sphere"
 center = [1.3, 0.5, -0.3]
 radius = 0.5
+tessellate = true
 segments = 8
 material = "white"
 "#;

@@ -73,6 +73,7 @@ pub fn furnace_scene(
         [[shape]]
         type = "sphere"
         radius = 1
+        tessellate = true
         segments = 24
         smooth = false
         flip_normals = true
