@@ -4,6 +4,8 @@
 
 use std::path::Path;
 
+mod common;
+
 use prism::film::Film;
 use prism::integrator::{Integrator, IntegratorKind, IntegratorSpec};
 use prism::load::{load_with, Loaded, Overrides};
@@ -93,4 +95,34 @@ fn one_load_renders_under_other_film_settings() {
         render(&loaded.scene, &settings, &options),
         Err(RenderError::Resolution { .. })
     ));
+}
+
+#[test]
+fn one_photon_mapper_sizes_each_scene_by_its_own_photons() {
+    // Photon mapping measures each scene's photons stored per photon
+    // emitted, for its default photon count: what it learnt of one scene
+    // must not carry over to another. A closed room stores several per
+    // photon, a lamp over a floor in the open less than one.
+    let room = common::scene(&format!(
+        "{}\n[film]\nresolution = [512, 512]\n",
+        "[camera]\nposition = [0.1, -0.2, 0.05]\nlook_at = [0, 0, 1]\n\
+         [integrator]\ntype = \"sppm\"\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\nflip_normals = true\nemission = 1\n"
+    ));
+    let floor = common::scene(
+        "[camera]\nposition = [0, 2, -3]\nlook_at = [0, 0, 0]\n\
+         [film]\nresolution = [512, 512]\n[integrator]\ntype = \"sppm\"\n\
+         [[shape]]\ntype = \"quad\"\nvertices = [[-2, 0, -2], [-2, 0, 2], [2, 0, 2], [2, 0, -2]]\n\
+         [[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = 5\n",
+    );
+    let photons = |integrator: &Integrator, loaded: &Loaded| match integrator {
+        Integrator::Sppm(p) => p.photons_per_iteration(&loaded.scene),
+        other => panic!("photon mapping, not {}", other.name()),
+    };
+    let shared = room.settings.integrator.clone();
+    let in_room = photons(&shared, &room);
+    let on_floor = photons(&floor.settings.integrator, &floor);
+    assert_ne!(in_room, on_floor, "the scenes should differ for this test");
+    assert_eq!(photons(&shared, &floor), on_floor);
+    assert_eq!(photons(&shared, &room), in_room);
 }

@@ -28,7 +28,7 @@
 //! variance of iteration i grows as (r_i² h_i)⁻¹ ∝ i^(3(1 − α)/2), slower
 //! than i for α > 1/3, so the mean converges.
 
-use std::sync::OnceLock;
+use std::sync::{Arc, Mutex};
 
 use glam::{IVec3, Vec3, Vec4};
 use rayon::prelude::*;
@@ -64,9 +64,9 @@ pub struct Sppm {
     pub alpha: f32,
     /// Half-width of the wavelength kernel in the first iteration (nm).
     pub spectral_radius: f32,
-    /// The default photon count, worked out once per scene.
-    /// Photons stored per photon emitted, measured by a pilot.
-    stored_per_photon: OnceLock<f64>,
+    /// Photons stored per photon emitted, measured by a pilot once per
+    /// scene (keyed by `Scene::id`: one integrator may render several).
+    stored_per_photon: Arc<Mutex<Option<(u64, f64)>>>,
 }
 
 impl Sppm {
@@ -85,7 +85,7 @@ impl Sppm {
             radius,
             alpha,
             spectral_radius,
-            stored_per_photon: OnceLock::new(),
+            stored_per_photon: Arc::default(),
         }
     }
 }
@@ -326,16 +326,25 @@ impl Sppm {
     /// every render of the scene). A scene lit through a small prism
     /// stores one photon in a hundred; a closed room several per photon.
     fn stored_per_photon(&self, scene: &Scene) -> f64 {
-        *self.stored_per_photon.get_or_init(|| {
-            const PILOT: u32 = 1 << 14;
-            let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
-            for j in 0..PILOT {
-                let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
-                self.trace_photon(scene, &mut sampler, &mut stored, &mut counters);
-                stored.clear();
+        let mut cached = self
+            .stored_per_photon
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        match *cached {
+            Some((id, value)) if id == scene.id() => value,
+            _ => {
+                const PILOT: u32 = 1 << 14;
+                let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
+                for j in 0..PILOT {
+                    let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
+                    self.trace_photon(scene, &mut sampler, &mut stored, &mut counters);
+                    stored.clear();
+                }
+                let value = counters.photons_stored as f64 / PILOT as f64;
+                *cached = Some((scene.id(), value));
+                value
             }
-            counters.photons_stored as f64 / PILOT as f64
-        })
+        }
     }
 
     /// The first iteration's radius: the given one, or four pixels' width
