@@ -22,7 +22,7 @@ const WIDTH: usize = 8;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 type Slab = super::lanes::F32x8;
 #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-type Slab = Vec4;
+type Slab = glam::Vec4;
 
 /// A wide node: the children's boxes as structure of arrays (`lo[axis][k]`
 /// is child k's lower bound on that axis), and per child either a node
