@@ -54,7 +54,6 @@ def main():
         "[[shape]]   # the light: D65 from every direction",
         'type = "sphere"',
         "radius = 50",
-        "segments = 32",
         "flip_normals = true",
         'emission = "D65"',
         "",
