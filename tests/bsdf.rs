@@ -857,3 +857,39 @@ fn importance_is_not_compressed_by_refraction() {
     }
     assert!(transmitted > 900);
 }
+
+/// Every kind of material of the list (`MaterialKind::ALL`), so a new one
+/// is tested without editing this file: its samples agree with its own
+/// evaluation (chi², where it has a density), and it keeps energy (the
+/// directional albedo of radiance arriving from outside is at most 1).
+#[test]
+fn every_kind_of_material_samples_what_it_evaluates_and_keeps_energy() {
+    use prism::material::MaterialKind;
+    let kinds = MaterialKind::ALL;
+    let thetas = [20.0f32, 70.0];
+    // Bonferroni over the chi² tests: an overall significance of 1%.
+    let threshold = 0.01 / (kinds.len() * thetas.len()) as f64;
+    for (k, &kind) in kinds.iter().enumerate() {
+        let m = kind.example();
+        assert_eq!(m.kind(), kind);
+        let eta = m.ior().map_or(1.0, |ior| ior.eval(550.0));
+        for (t, &theta) in thetas.iter().enumerate() {
+            let seed = (k * thetas.len() + t) as u64;
+            let b = bsdf(&m, incident(theta), eta);
+            let ((mean, se), _) = albedo(&b, seed);
+            assert!(
+                mean.is_finite() && mean <= 1.0 + 5.0 * se.max(0.0) + 1e-6,
+                "{} θ {theta}: albedo {mean} ± {se}",
+                kind.name()
+            );
+            if !b.bsdf.is_specular() {
+                let p = chi2(&m, incident(theta), eta, seed);
+                assert!(
+                    p > threshold,
+                    "{} θ {theta}: chi² p-value {p:.2e} below {threshold:.1e}",
+                    kind.name()
+                );
+            }
+        }
+    }
+}

@@ -186,6 +186,79 @@ pub enum Material {
     Pbr(Box<PbrMaterial>),
 }
 
+/// The list of kinds of material, one line each: `MaterialKind::ALL`
+/// enumerates them and `MaterialKind::example` makes one of each, so tests
+/// that must cover every material iterate them. `Material::kind` and
+/// `example` match exhaustively: a new `Material` variant does not compile
+/// until it has a kind here and an example.
+macro_rules! material_kinds {
+    ($($kind:ident => $name:literal,)*) => {
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum MaterialKind {
+            $($kind,)*
+        }
+
+        impl MaterialKind {
+            /// Every kind of material.
+            pub const ALL: &'static [MaterialKind] = &[$(MaterialKind::$kind,)*];
+
+            /// The name scene files use (`pbr` is what imported glTF
+            /// materials become).
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(MaterialKind::$kind => $name,)*
+                }
+            }
+        }
+    };
+}
+
+material_kinds! {
+    Diffuse => "diffuse",
+    Conductor => "conductor",
+    Dielectric => "dielectric",
+    Interface => "interface",
+    Pbr => "pbr",
+}
+
+impl MaterialKind {
+    /// A typical material of the kind, rough where it can be (so that its
+    /// BSDF has a density to test), for tests.
+    pub fn example(self) -> Material {
+        match self {
+            MaterialKind::Diffuse => Material::Diffuse {
+                reflectance: Spectrum::Constant(0.6).into(),
+            },
+            MaterialKind::Conductor => Material::Conductor {
+                eta: Spectrum::Constant(0.2),
+                k: Spectrum::Constant(3.5),
+                alpha: 0.3,
+            },
+            MaterialKind::Dielectric => Material::Dielectric {
+                ior: Ior::Constant(1.5),
+                alpha: 0.3,
+                priority: 0,
+                medium: None,
+                tint: None,
+                opaque: None,
+            },
+            MaterialKind::Interface => Material::Interface {
+                priority: 0,
+                medium: Box::new(Medium::absorbing([0.5, 0.6, 0.7], 1.0)),
+            },
+            MaterialKind::Pbr => Material::Pbr(Box::new(PbrMaterial {
+                base_color: Spectrum::Constant(0.7).into(),
+                metallic: 0.5,
+                roughness: 0.4,
+                metallic_roughness: None,
+                ior: 1.5,
+                normal_map: None,
+                layers: Default::default(),
+            })),
+        }
+    }
+}
+
 /// Geometry of the hit a BSDF is built for.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingGeometry {
@@ -198,6 +271,17 @@ pub struct ShadingGeometry {
 }
 
 impl Material {
+    /// Which kind of material this is.
+    pub fn kind(&self) -> MaterialKind {
+        match self {
+            Material::Diffuse { .. } => MaterialKind::Diffuse,
+            Material::Conductor { .. } => MaterialKind::Conductor,
+            Material::Dielectric { .. } => MaterialKind::Dielectric,
+            Material::Interface { .. } => MaterialKind::Interface,
+            Material::Pbr(_) => MaterialKind::Pbr,
+        }
+    }
+
     /// The BSDF at a hit. `eta` is n_inside / n_outside per wavelength (used
     /// by dielectrics). A smooth dispersive interface terminates the
     /// secondary wavelengths: they cannot follow the hero's direction.
