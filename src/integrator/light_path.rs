@@ -6,16 +6,17 @@
 
 use glam::Vec3;
 
-use super::interface::{bsdf_at, media_at, scatter, stack_towards, trace, transmittance, Next};
-use super::ior_stack::{Entry, IorStack};
-use super::volume::Flight;
+use super::interface::{media_at, stack_towards, transmittance};
+use super::ior_stack::IorStack;
+use super::walk::{Event, Flow, PathContext, Visitor, Walk};
 use super::PathCounters;
+
+pub use super::walk::Scatterer;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightLeSample;
 use crate::light::LightSource;
-use crate::material::{Bsdf, TransportMode};
-use crate::medium::HenyeyGreenstein;
+use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -70,19 +71,6 @@ pub fn start(
         ray,
         stack,
     })
-}
-
-/// Where a light path scattered.
-#[derive(Clone, Copy)]
-pub enum Scatterer<'a> {
-    Surface {
-        hit: &'a SurfaceHit,
-        bsdf: &'a Bsdf,
-        /// What `trace` said of the surface (the dielectric it bounds).
-        medium: Option<(Entry, bool)>,
-    },
-    /// A point inside a medium, with its phase function.
-    Medium { p: Vec3, phase: HenyeyGreenstein },
 }
 
 /// A vertex a light path reached, offered to `walk`'s `visit`.
@@ -150,86 +138,54 @@ impl LightVertex<'_> {
 
 /// Traces a light path from `start` through up to `max_depth` vertices
 /// (surfaces and scattering events in media), carrying importance, and
-/// calls `visit` at each before sampling its BSDF or phase function (one
-/// 4D point a bounce: direction, lobe, Russian roulette after `rr_depth`;
-/// one more before each segment in scenes with scattering media, for the
-/// free flight). `wl` may lose its secondaries on the way.
-#[allow(clippy::too_many_arguments)]
+/// calls `visit` at each before its direction is drawn (the shared walk,
+/// `walk::walk`). `ctx.wl` may lose its secondaries on the way.
 pub fn walk(
-    scene: &Scene,
+    ctx: &mut PathContext,
     start: LightPath,
-    wl: &mut SampledWavelengths,
     max_depth: u32,
     rr_depth: u32,
-    sampler: &mut Sampler,
-    counters: &mut PathCounters,
-    mut visit: impl FnMut(LightVertex<'_>),
+    visit: impl FnMut(LightVertex<'_>),
 ) {
-    let (mut ray, mut stack) = (start.ray, start.stack);
-    let mut flight = Flight::new(start.beta);
-    let mut depth = 0;
-    while depth < max_depth {
-        match trace(
-            scene,
-            &mut ray,
-            &mut stack,
-            wl,
-            &mut flight,
-            Some(&mut *sampler),
-            counters,
-        ) {
-            Next::Surface { hit, eta, medium } => {
-                depth += 1;
-                let wo = -ray.dir;
-                let bsdf = bsdf_at(scene, &hit, wo, wl, eta);
-                visit(LightVertex {
-                    at: Scatterer::Surface {
-                        hit: &hit,
-                        bsdf: &bsdf,
-                        medium,
-                    },
-                    wo,
-                    beta: flight.weight(wl),
-                    stack: &stack,
-                    wl,
-                    depth,
-                    sampler: &mut *sampler,
-                    counters: &mut *counters,
-                });
+    if max_depth == 0 {
+        return;
+    }
+    let mut path = Walk::new(
+        start.ray,
+        start.stack,
+        start.beta,
+        TransportMode::Importance,
+        rr_depth,
+    );
+    super::walk::walk(ctx, &mut path, &mut Visit { max_depth, visit });
+}
 
-                let [u0, u1, uc, u_rr] = sampler.next_4d();
-                let Some(bs) = bsdf.sample(wo, uc, (u0, u1), TransportMode::Importance) else {
-                    break;
-                };
-                flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
-                ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
-                scatter(&mut stack, medium, wo, bs.wi, hit.ng, counters);
-                // Importance is not scaled at refraction: no η'² to undo.
-                if !flight.roulette(wl, 1.0, depth, rr_depth, u_rr) {
-                    break;
-                }
-            }
-            Next::Medium { p, phase } => {
-                depth += 1;
-                let dir_in = ray.dir.normalize();
-                visit(LightVertex {
-                    at: Scatterer::Medium { p, phase },
-                    wo: -dir_in,
-                    beta: flight.weight(wl),
-                    stack: &stack,
-                    wl,
-                    depth,
-                    sampler: &mut *sampler,
-                    counters: &mut *counters,
-                });
-                let [u0, u1, _, u_rr] = sampler.next_4d();
-                let (wi, _) = phase.sample(dir_in, (u0, u1));
-                ray = Ray::new(p, wi);
-                if !flight.roulette(wl, 1.0, depth, rr_depth, u_rr) {
-                    break;
-                }
-            }
-            Next::Escaped | Next::Lost => break,
+/// `walk`'s visitor: each vertex offered to the caller, up to the depth.
+struct Visit<F> {
+    max_depth: u32,
+    visit: F,
+}
+
+impl<F: FnMut(LightVertex<'_>)> Visitor for Visit<F> {
+    fn arrive(&mut self, _: &mut PathContext, walk: &Walk, _: Option<&SurfaceHit>) -> Flow {
+        if walk.depth == self.max_depth {
+            Flow::End
+        } else {
+            Flow::Go
         }
+    }
+
+    fn scatter_from(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> Flow {
+        (self.visit)(LightVertex {
+            at: event.at,
+            wo: event.wo,
+            beta: walk.flight.weight(ctx.wl),
+            stack: &walk.stack,
+            wl: ctx.wl,
+            depth: walk.depth,
+            sampler: &mut *ctx.sampler,
+            counters: &mut *ctx.counters,
+        });
+        Flow::Go
     }
 }

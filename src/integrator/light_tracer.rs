@@ -15,6 +15,7 @@
 
 use super::interface::transmittance;
 use super::light_path::{self, Scatterer};
+use super::walk::PathContext;
 use super::{lens_sample, PathCounters, PixelSample};
 use super::{Integrate, IntegratorSpec};
 use crate::camera::Camera;
@@ -145,31 +146,28 @@ impl LightTracer {
             }
         }
 
-        light_path::walk(
+        let mut ctx = PathContext {
             scene,
-            start,
-            &mut wl,
-            self.max_depth,
-            self.rr_depth,
+            wl: &mut wl,
             sampler,
             counters,
-            |mut v| {
-                // Connect to the camera (Dirac lobes cannot turn towards it).
-                if let Scatterer::Surface { bsdf, .. } = v.at {
-                    if bsdf.is_specular() {
-                        return;
-                    }
-                }
-                let u_lens = lens_sample(scene, v.sampler);
-                let Some(cs) = scene.camera.sample_wi(v.p(), u_lens) else {
+        };
+        light_path::walk(&mut ctx, start, self.max_depth, self.rr_depth, |mut v| {
+            // Connect to the camera (Dirac lobes cannot turn towards it).
+            if let Scatterer::Surface { bsdf, .. } = v.at {
+                if bsdf.is_specular() {
                     return;
-                };
-                let l = v.towards_camera(scene, &cs);
-                if l != SampledSpectrum::ZERO {
-                    splat(tile, scene, &cs, l, v.wl);
                 }
-            },
-        );
+            }
+            let u_lens = lens_sample(scene, v.sampler);
+            let Some(cs) = scene.camera.sample_wi(v.p(), u_lens) else {
+                return;
+            };
+            let l = v.towards_camera(scene, &cs);
+            if l != SampledSpectrum::ZERO {
+                splat(tile, scene, &cs, l, v.wl);
+            }
+        });
         none(wl)
     }
 }

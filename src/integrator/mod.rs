@@ -13,6 +13,7 @@ mod light_tracer;
 mod path;
 mod sppm;
 pub mod volume;
+pub mod walk;
 
 use serde::Deserialize;
 

@@ -35,6 +35,7 @@ use rayon::prelude::*;
 
 use super::light_path::{self, Scatterer};
 use super::path::{PathTracer, Stop};
+use super::walk::PathContext;
 use super::{camera_ray, PathCounters, PixelSample, Strategy};
 use super::{Integrate, IntegratorSpec};
 use crate::camera::Camera;
@@ -418,41 +419,38 @@ impl Sppm {
         else {
             return;
         };
-        light_path::walk(
+        let mut ctx = PathContext {
             scene,
-            start,
-            &mut wl,
-            self.max_depth,
-            self.rr_depth,
+            wl: &mut wl,
             sampler,
             counters,
-            |v| {
-                // Photons stay on diffuse surfaces (not in media: the
-                // camera paths find light scattered there themselves).
-                let Scatterer::Surface { hit, bsdf, .. } = v.at else {
-                    return;
-                };
-                if v.depth < 2 || !bsdf.flags().contains(BsdfFlags::DIFFUSE) {
-                    return;
+        };
+        light_path::walk(&mut ctx, start, self.max_depth, self.rr_depth, |v| {
+            // Photons stay on diffuse surfaces (not in media: the
+            // camera paths find light scattered there themselves).
+            let Scatterer::Surface { hit, bsdf, .. } = v.at else {
+                return;
+            };
+            if v.depth < 2 || !bsdf.flags().contains(BsdfFlags::DIFFUSE) {
+                return;
+            }
+            let mut weight = Vec4::ZERO;
+            for k in 0..4 {
+                if v.wl.pdf[k] > 0.0 {
+                    weight[k] = v.beta[k] / (4.0 * v.wl.pdf[k]);
                 }
-                let mut weight = Vec4::ZERO;
-                for k in 0..4 {
-                    if v.wl.pdf[k] > 0.0 {
-                        weight[k] = v.beta[k] / (4.0 * v.wl.pdf[k]);
-                    }
-                }
-                if weight.is_finite() && weight != Vec4::ZERO {
-                    v.counters.photons_stored += 1;
-                    out.push(Photon {
-                        p: hit.p,
-                        wi: v.wo,
-                        lambda: v.wl.lambda,
-                        weight,
-                        depth: v.depth,
-                    });
-                }
-            },
-        );
+            }
+            if weight.is_finite() && weight != Vec4::ZERO {
+                v.counters.photons_stored += 1;
+                out.push(Photon {
+                    p: hit.p,
+                    wi: v.wo,
+                    lambda: v.wl.lambda,
+                    weight,
+                    depth: v.depth,
+                });
+            }
+        });
     }
 
     /// One sample of pixel (x, y) in the iteration of `map`.

@@ -1,0 +1,243 @@
+//! The one random walk every integrator's paths take: camera paths of the
+//! path tracer, light paths of the light tracer and of photon mapping, and
+//! both subpaths of bdpt. The walk traces to the next event (a surface, a
+//! scattering point in a medium, an escape), builds the BSDF, draws one 4D
+//! point a bounce (direction, lobe, Russian roulette), moves the IOR stack
+//! across interfaces and plays Russian roulette; a [`Visitor`] says what
+//! the integrator does at each event (gather light, record a vertex,
+//! connect to the camera) and may end the walk.
+//!
+//! The order of random numbers is fixed here: a bounce's own numbers come
+//! after whatever the visitor drew at the event (light samples), so a
+//! transport change made here is made once for every integrator.
+
+use glam::Vec3;
+
+use super::interface::{bsdf_at, scatter, trace, Next};
+use super::ior_stack::{Entry, IorStack};
+use super::volume::Flight;
+use super::PathCounters;
+use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::Ray;
+use crate::material::{Bsdf, TransportMode};
+use crate::medium::HenyeyGreenstein;
+use crate::sampler::Sampler;
+use crate::scene::{Scene, SurfaceHit};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// What every step of a path uses: the scene, the path's wavelengths (a
+/// dispersive interface may end the secondaries), its sampler and the
+/// render's counters.
+pub struct PathContext<'a> {
+    pub scene: &'a Scene,
+    pub wl: &'a mut SampledWavelengths,
+    pub sampler: &'a mut Sampler,
+    pub counters: &'a mut PathCounters,
+}
+
+/// Where a path is: the ray it follows, the media it is in, what it
+/// carries, and how far it came.
+#[derive(Clone)]
+pub struct Walk {
+    pub ray: Ray,
+    pub stack: IorStack,
+    pub flight: Flight,
+    /// Scattering events so far (surfaces and points in media), the one
+    /// being visited included.
+    pub depth: u32,
+    /// Product of η'² over transmissions for radiance: refraction scales
+    /// radiance by 1/η'², which Russian roulette must not mistake for a
+    /// dim path (1 for importance, which refraction does not scale).
+    pub eta_scale: f32,
+    pub mode: TransportMode,
+    /// Events before Russian roulette may end the path.
+    pub rr_depth: u32,
+}
+
+impl Walk {
+    pub fn new(
+        ray: Ray,
+        stack: IorStack,
+        beta: SampledSpectrum,
+        mode: TransportMode,
+        rr_depth: u32,
+    ) -> Self {
+        Self {
+            ray,
+            stack,
+            flight: Flight::new(beta),
+            depth: 0,
+            eta_scale: 1.0,
+            mode,
+            rr_depth,
+        }
+    }
+}
+
+/// Where a path scatters.
+#[derive(Clone, Copy)]
+pub enum Scatterer<'a> {
+    Surface {
+        hit: &'a SurfaceHit,
+        bsdf: &'a Bsdf,
+        /// What `trace` said of the surface (the dielectric it bounds).
+        medium: Option<(Entry, bool)>,
+    },
+    /// A point inside a medium, with its phase function.
+    Medium { p: Vec3, phase: HenyeyGreenstein },
+}
+
+/// A scattering event: where, and the direction back along the path.
+#[derive(Clone, Copy)]
+pub struct Event<'a> {
+    pub at: Scatterer<'a>,
+    pub wo: Vec3,
+}
+
+/// Whether the walk goes on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    Go,
+    End,
+}
+
+/// What an integrator does along a walk.
+pub trait Visitor {
+    /// The walk reached a surface (`Some`, before its BSDF is built) or a
+    /// scattering point in a medium (`None`); `walk.depth` does not count
+    /// it yet. End here to stop at a depth limit.
+    fn arrive(&mut self, ctx: &mut PathContext, walk: &Walk, hit: Option<&SurfaceHit>) -> Flow;
+
+    /// At a scattering event, before its direction is drawn (`walk.depth`
+    /// counts it): gather, record, connect; end the walk if it is done.
+    fn scatter_from(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> Flow;
+
+    /// The numbers of the bounce from the event just visited.
+    fn numbers(&mut self, ctx: &mut PathContext, _walk: &Walk) -> [f32; 4] {
+        ctx.sampler.next_4d()
+    }
+
+    /// A direction `wi` was drawn from `event` with density `pdf` (a
+    /// Dirac lobe's: `specular`).
+    fn scattered(
+        &mut self,
+        _scene: &Scene,
+        _walk: &Walk,
+        _event: &Event,
+        _wi: Vec3,
+        _pdf: f32,
+        _specular: bool,
+    ) {
+    }
+
+    /// The path left the scene.
+    fn escaped(&mut self, _ctx: &mut PathContext, _walk: &Walk) {}
+}
+
+/// Walks the path from `walk` until it escapes, is absorbed, loses Russian
+/// roulette or the visitor ends it.
+pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) {
+    loop {
+        let next = trace(
+            ctx.scene,
+            &mut walk.ray,
+            &mut walk.stack,
+            ctx.wl,
+            &mut walk.flight,
+            Some(&mut *ctx.sampler),
+            ctx.counters,
+        );
+        match next {
+            Next::Surface { hit, eta, medium } => {
+                if visitor.arrive(ctx, walk, Some(&hit)) == Flow::End {
+                    break;
+                }
+                walk.depth += 1;
+                let wo = -walk.ray.dir;
+                let bsdf = bsdf_at(ctx.scene, &hit, wo, ctx.wl, eta);
+                let event = Event {
+                    at: Scatterer::Surface {
+                        hit: &hit,
+                        bsdf: &bsdf,
+                        medium,
+                    },
+                    wo,
+                };
+                if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+                    break;
+                }
+                let u = visitor.numbers(ctx, walk);
+                if !scatter_from_surface(ctx, walk, &event, u, visitor) {
+                    break;
+                }
+            }
+            Next::Medium { p, phase } => {
+                if visitor.arrive(ctx, walk, None) == Flow::End {
+                    break;
+                }
+                walk.depth += 1;
+                let dir_in = walk.ray.dir.normalize();
+                let event = Event {
+                    at: Scatterer::Medium { p, phase },
+                    wo: -dir_in,
+                };
+                if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+                    break;
+                }
+                let [u0, u1, _, u_rr] = visitor.numbers(ctx, walk);
+                let (wi, pdf) = phase.sample(dir_in, (u0, u1));
+                visitor.scattered(ctx.scene, walk, &event, wi, pdf, false);
+                walk.ray = Ray::new(p, wi);
+                let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
+                if !walk
+                    .flight
+                    .roulette(ctx.wl, eta_scale, depth, rr_depth, u_rr)
+                {
+                    break;
+                }
+            }
+            Next::Escaped => {
+                visitor.escaped(ctx, walk);
+                break;
+            }
+            Next::Lost => break,
+        }
+    }
+}
+
+/// The BSDF sample that continues `walk` from the surface `event` with the
+/// numbers `u`, the IOR stack across it, and Russian roulette: whether the
+/// walk goes on. (The path tracer's branches take this step themselves.)
+pub fn scatter_from_surface(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    event: &Event,
+    u: [f32; 4],
+    visitor: &mut impl Visitor,
+) -> bool {
+    let Scatterer::Surface { hit, bsdf, medium } = event.at else {
+        return false;
+    };
+    let [u0, u1, uc, u_rr] = u;
+    let Some(bs) = bsdf.sample(event.wo, uc, (u0, u1), walk.mode) else {
+        return false;
+    };
+    walk.flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+    visitor.scattered(ctx.scene, walk, event, bs.wi, bs.pdf, bs.is_specular());
+    walk.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
+    // Transmission through a dielectric moves the path into or out of it.
+    let crossed = scatter(
+        &mut walk.stack,
+        medium,
+        event.wo,
+        bs.wi,
+        hit.ng,
+        ctx.counters,
+    );
+    if crossed && medium.is_some() && walk.mode == TransportMode::Radiance {
+        walk.eta_scale *= bs.eta * bs.eta;
+    }
+    let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
+    walk.flight
+        .roulette(ctx.wl, eta_scale, depth, rr_depth, u_rr)
+}
