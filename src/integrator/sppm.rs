@@ -478,25 +478,21 @@ impl Sppm {
             strategy: Strategy::Nee,
             ..tracer
         };
-        let l = tracer.radiance_until(scene, ray, &mut wl, sampler, counters, |at: Stop| {
+        let mut ctx = PathContext {
+            scene,
+            wl: &mut wl,
+            sampler,
+            counters,
+        };
+        let l = tracer.radiance_until(&mut ctx, ray, |at: Stop| {
             if !at.bsdf.flags().contains(BsdfFlags::DIFFUSE) {
                 return None;
             }
-            let ld = direct.sample_direct(
-                scene,
-                at.hit,
-                at.wo,
-                at.bsdf,
-                at.stack,
-                at.medium,
-                at.wl,
-                at.sampler,
-                at.counters,
-            );
+            let ld = direct.sample_direct(at.ctx, at.hit, at.wo, at.bsdf, at.stack, at.medium);
             // Photons of up to max_depth + 1 − depth surfaces keep the
             // whole path within max_depth bounces.
             let max_photon_depth = self.max_depth + 1 - at.depth;
-            Some(ld + map.gather(at.hit.p, at.wo, at.bsdf, at.wl, max_photon_depth))
+            Some(ld + map.gather(at.hit.p, at.wo, at.bsdf, at.ctx.wl, max_photon_depth))
         });
         PixelSample { l, wl }
     }
