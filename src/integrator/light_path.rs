@@ -150,13 +150,7 @@ pub fn walk(
     if max_depth == 0 {
         return;
     }
-    let mut path = Walk::new(
-        start.ray,
-        start.stack,
-        start.beta,
-        TransportMode::Importance,
-        rr_depth,
-    );
+    let mut path = Walk::new(start.ray, start.stack, start.beta, rr_depth);
     super::walk::walk(ctx, &mut path, &mut Visit { max_depth, visit });
 }
 
@@ -167,6 +161,10 @@ struct Visit<F> {
 }
 
 impl<F: FnMut(LightVertex<'_>)> Visitor for Visit<F> {
+    fn mode(&self) -> TransportMode {
+        TransportMode::Importance
+    }
+
     fn arrive(&mut self, _: &mut PathContext, walk: &Walk, _: Option<&SurfaceHit>) -> Flow {
         if walk.depth == self.max_depth {
             Flow::End

@@ -174,13 +174,7 @@ impl PathTracer {
     /// A walk from the camera: radiance, nothing around it yet.
     fn camera_walk(&self, ray: Ray) -> Walk {
         let beta = SampledSpectrum::ONE;
-        Walk::new(
-            ray,
-            IorStack::default(),
-            beta,
-            TransportMode::Radiance,
-            self.rr_depth,
-        )
+        Walk::new(ray, IorStack::default(), beta, self.rr_depth)
     }
 
     /// The light the path from `walk` on gathers until it ends. With
@@ -189,7 +183,7 @@ impl PathTracer {
         &self,
         ctx: &mut PathContext,
         mut walk: Walk,
-        stop: Option<&mut dyn FnMut(Stop<'_, '_>) -> Option<SampledSpectrum>>,
+        stop: Option<StopAt<'_>>,
         split: u32,
     ) -> SampledSpectrum {
         let mut visitor = Gather {
@@ -317,6 +311,9 @@ impl PathTracer {
     }
 }
 
+/// What may end a camera path at a surface (`radiance_until`).
+type StopAt<'s> = &'s mut dyn FnMut(Stop<'_, '_>) -> Option<SampledSpectrum>;
+
 /// The path tracer's visitor: the light a camera path gathers (emission
 /// found by BSDF sampling, next-event estimates), and its splitting.
 struct Gather<'t, 's> {
@@ -325,11 +322,15 @@ struct Gather<'t, 's> {
     /// The last bounce was a Dirac one (or there was none).
     specular: bool,
     prev_bsdf_pdf: f32,
-    stop: Option<&'s mut dyn FnMut(Stop<'_, '_>) -> Option<SampledSpectrum>>,
+    stop: Option<StopAt<'s>>,
     split: u32,
 }
 
 impl Visitor for Gather<'_, '_> {
+    fn mode(&self) -> TransportMode {
+        TransportMode::Radiance
+    }
+
     fn arrive(&mut self, ctx: &mut PathContext, walk: &Walk, hit: Option<&SurfaceHit>) -> Flow {
         if let Some((hit, i)) = hit.and_then(|h| h.light.map(|i| (h, i))) {
             let light = ctx.scene.lights.get(i);

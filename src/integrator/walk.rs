@@ -49,26 +49,18 @@ pub struct Walk {
     /// radiance by 1/η'², which Russian roulette must not mistake for a
     /// dim path (1 for importance, which refraction does not scale).
     pub eta_scale: f32,
-    pub mode: TransportMode,
     /// Events before Russian roulette may end the path.
     pub rr_depth: u32,
 }
 
 impl Walk {
-    pub fn new(
-        ray: Ray,
-        stack: IorStack,
-        beta: SampledSpectrum,
-        mode: TransportMode,
-        rr_depth: u32,
-    ) -> Self {
+    pub fn new(ray: Ray, stack: IorStack, beta: SampledSpectrum, rr_depth: u32) -> Self {
         Self {
             ray,
             stack,
             flight: Flight::new(beta),
             depth: 0,
             eta_scale: 1.0,
-            mode,
             rr_depth,
         }
     }
@@ -103,6 +95,11 @@ pub enum Flow {
 
 /// What an integrator does along a walk.
 pub trait Visitor {
+    /// What the path carries: radiance (from the camera) or importance
+    /// (from a light). A constant for most visitors, which lets the
+    /// compiler specialise the BSDF's sampling to it.
+    fn mode(&self) -> TransportMode;
+
     /// The walk reached a surface (`Some`, before its BSDF is built) or a
     /// scattering point in a medium (`None`); `walk.depth` does not count
     /// it yet. End here to stop at a depth limit.
@@ -219,7 +216,8 @@ pub fn scatter_from_surface(
         return false;
     };
     let [u0, u1, uc, u_rr] = u;
-    let Some(bs) = bsdf.sample(event.wo, uc, (u0, u1), walk.mode) else {
+    let mode = visitor.mode();
+    let Some(bs) = bsdf.sample(event.wo, uc, (u0, u1), mode) else {
         return false;
     };
     walk.flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
@@ -234,7 +232,7 @@ pub fn scatter_from_surface(
         hit.ng,
         ctx.counters,
     );
-    if crossed && medium.is_some() && walk.mode == TransportMode::Radiance {
+    if crossed && medium.is_some() && mode == TransportMode::Radiance {
         walk.eta_scale *= bs.eta * bs.eta;
     }
     let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
