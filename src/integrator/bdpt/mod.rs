@@ -31,6 +31,7 @@ use std::cell::RefCell;
 
 use super::ior_stack::IorStack;
 use super::light_path;
+use super::walk::PathContext;
 use super::{camera_ray, PathCounters, PixelSample};
 use super::{Integrate, IntegratorSpec};
 use crate::camera::Camera;
@@ -44,7 +45,7 @@ use crate::light::LightSource;
 use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::SampledSpectrum;
 
 mod connect;
 mod vertex;
@@ -52,7 +53,7 @@ mod walk;
 
 use connect::connect;
 use vertex::{infinite_density, Kind, Vertex};
-use walk::Walk;
+use walk::{Start, Subpath};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bdpt {
@@ -158,25 +159,14 @@ impl Bdpt {
             camera_path.clear();
             light_path.clear();
             let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
-            self.camera_subpath(
+            let mut ctx = PathContext {
                 scene,
-                ray,
-                camera_path,
-                &mut wl,
-                sampler,
-                u_camera_bounce,
-                counters,
-            );
-            self.light_subpath(
-                scene,
-                u_light,
-                u_le,
-                light_path,
-                &mut wl,
-                sampler,
-                u_light_bounce,
-                counters,
-            );
+                wl: &mut wl,
+                sampler: &mut *sampler,
+                counters: &mut *counters,
+            };
+            self.camera_subpath(&mut ctx, ray, camera_path, u_camera_bounce);
+            self.light_subpath(&mut ctx, u_light, u_le, light_path, u_light_bounce);
 
             // Every strategy, with the wavelengths both walks left.
             let mut l = SampledSpectrum::ZERO;
@@ -215,60 +205,47 @@ impl Bdpt {
 
     /// The camera subpath: the camera, then up to max_depth + 1 surfaces
     /// (and a last vertex at infinity when a ray escapes to lights there).
-    #[allow(clippy::too_many_arguments)]
     fn camera_subpath(
         &self,
-        scene: &Scene,
+        ctx: &mut PathContext,
         ray: Ray,
         path: &mut Vec<Vertex>,
-        wl: &mut SampledWavelengths,
-        sampler: &mut Sampler,
         u_first: [f32; 4],
-        counters: &mut PathCounters,
     ) {
         let camera = Vertex::new(Kind::Camera, ray.origin, SampledSpectrum::ONE);
         path.push(camera);
-        // A pinhole with a box filter: W_e / p = 1 for every camera ray.
-        let pdf_dir = scene.camera.pdf_we(ray.origin, ray.dir);
-        let walk = Walk {
+        let subpath = Subpath {
             mode: TransportMode::Radiance,
             max_vertices: self.max_depth as usize + 2,
             rr_depth: self.rr_depth,
         };
-        walk.run(
-            scene,
+        let start = Start {
             ray,
-            SampledSpectrum::ONE,
-            pdf_dir,
-            IorStack::default(),
-            path,
-            wl,
-            sampler,
-            u_first,
-            counters,
-        );
+            beta: SampledSpectrum::ONE,
+            // A pinhole with a box filter: W_e / p = 1 for every camera ray.
+            pdf_dir: ctx.scene.camera.pdf_we(ray.origin, ray.dir),
+            stack: IorStack::default(),
+        };
+        subpath.run(ctx, start, path, u_first);
     }
 
     /// The light subpath: a point on a light, then up to max_depth surfaces.
-    #[allow(clippy::too_many_arguments)]
     fn light_subpath(
         &self,
-        scene: &Scene,
+        ctx: &mut PathContext,
         u_light: f32,
         u_le: [f32; 4],
         path: &mut Vec<Vertex>,
-        wl: &mut SampledWavelengths,
-        sampler: &mut Sampler,
         u_first: [f32; 4],
-        counters: &mut PathCounters,
     ) {
+        let scene = ctx.scene;
         let Some(start) = light_path::start(
             scene,
             u_light,
             (u_le[0], u_le[1]),
             (u_le[2], u_le[3]),
-            wl,
-            counters,
+            ctx.wl,
+            ctx.counters,
         ) else {
             return;
         };
@@ -288,23 +265,18 @@ impl Bdpt {
         };
         path.push(origin);
 
-        let walk = Walk {
+        let subpath = Subpath {
             mode: TransportMode::Importance,
             max_vertices: self.max_depth as usize + 1,
             rr_depth: self.rr_depth,
         };
-        walk.run(
-            scene,
-            start.ray,
-            start.beta,
-            les.pdf_dir,
-            start.stack,
-            path,
-            wl,
-            sampler,
-            u_first,
-            counters,
-        );
+        let first = Start {
+            ray: start.ray,
+            beta: start.beta,
+            pdf_dir: les.pdf_dir,
+            stack: start.stack,
+        };
+        subpath.run(ctx, first, path, u_first);
         // From infinity the first hit's density is the disc's, per area.
         if light.is_infinite() && path.len() > 1 {
             let v = &mut path[1];
