@@ -8,6 +8,7 @@ use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::integrator::interface::transmittance;
 use crate::integrator::volume::mis_divisor;
+use crate::integrator::walk::PathContext;
 use crate::integrator::{lens_sample, PathCounters};
 use crate::light::LightSource;
 use crate::material::TransportMode;
@@ -24,18 +25,18 @@ pub(super) struct Contribution {
 
 /// The contribution of strategy (s, t), MIS weight included. `u_direct`
 /// are the numbers for s = 1 (drawn from `sampler` when None).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn connect(
-    scene: &Scene,
+    ctx: &mut PathContext,
     light_path: &[Vertex],
     camera_path: &[Vertex],
     s: usize,
     t: usize,
-    wl: &SampledWavelengths,
-    sampler: &mut Sampler,
     u_direct: Option<[f32; 4]>,
-    counters: &mut PathCounters,
 ) -> Contribution {
+    let scene: &Scene = ctx.scene;
+    let wl: &SampledWavelengths = ctx.wl;
+    let sampler: &mut Sampler = ctx.sampler;
+    let counters: &mut PathCounters = ctx.counters;
     let none = Contribution {
         l: SampledSpectrum::ZERO,
         raster: None,

@@ -178,22 +178,12 @@ impl Bdpt {
                         continue;
                     }
                     let u = if t == 2 { Some(u_direct) } else { None };
-                    let c = connect(
-                        scene,
-                        light_path,
-                        camera_path,
-                        s,
-                        t,
-                        &wl,
-                        sampler,
-                        u,
-                        counters,
-                    );
+                    let c = connect(&mut ctx, light_path, camera_path, s, t, u);
                     match c.raster {
                         Some(r) => {
                             let px = (r.x as u32).min(scene.camera.resolution().0 - 1);
                             let py = (r.y as u32).min(scene.camera.resolution().1 - 1);
-                            tile.add_splat(px, py, c.l, &wl);
+                            tile.add_splat(px, py, c.l, ctx.wl);
                         }
                         None => l += c.l,
                     }
