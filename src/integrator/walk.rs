@@ -133,6 +133,7 @@ pub trait Visitor {
 
 /// Walks the path from `walk` until it escapes, is absorbed, loses Russian
 /// roulette or the visitor ends it.
+#[inline]
 pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) {
     loop {
         let next = trace(
@@ -205,6 +206,7 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
 /// The BSDF sample that continues `walk` from the surface `event` with the
 /// numbers `u`, the IOR stack across it, and Russian roulette: whether the
 /// walk goes on. (The path tracer's branches take this step themselves.)
+#[inline(always)]
 pub fn scatter_from_surface(
     ctx: &mut PathContext,
     walk: &mut Walk,
