@@ -13,10 +13,10 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use super::lat_long::SphericalDistribution;
-use super::{LightLeSample, LightLiSample, LightSource, SceneSphere};
+use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::spectrum::cie;
 use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
@@ -131,66 +131,7 @@ impl EnvironmentMap {
     }
 }
 
-/// What the light must answer whole: see `LightSource` (light/mod.rs).
-impl LightSource for EnvironmentMap {
-    fn is_delta(&self) -> bool {
-        false
-    }
-
-    fn is_infinite(&self) -> bool {
-        true
-    }
-
-    fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
-        self.with_scene(sphere)
-    }
-
-    fn power(&self) -> f64 {
-        EnvironmentMap::power(self)
-    }
-
-    fn spectrum(&self) -> Option<&Spectrum> {
-        Some(EnvironmentMap::spectrum(self))
-    }
-
-    #[inline]
-    fn sample_li(&self, _: Vec3, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        EnvironmentMap::sample_li(self, u, wl)
-    }
-
-    /// Only escaped rays (no point on the light) find it.
-    #[inline]
-    fn pdf_li(&self, _: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
-        match p_light {
-            None => EnvironmentMap::pdf_li(self, wi),
-            Some(_) => 0.0,
-        }
-    }
-
-    #[inline]
-    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
-        SampledSpectrum::ZERO
-    }
-
-    /// `dir` travels away from the scene: the light seen that way.
-    #[inline]
-    fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        self.radiance(dir, wl)
-    }
-
-    fn sample_le(
-        &self,
-        u_pos: (f32, f32),
-        u_dir: (f32, f32),
-        wl: &SampledWavelengths,
-    ) -> Option<LightLeSample> {
-        EnvironmentMap::sample_le(self, u_pos, u_dir, wl)
-    }
-
-    fn pdf_le(&self, _: Vec2, dir: Vec3) -> (f32, f32) {
-        EnvironmentMap::pdf_le(self, dir)
-    }
-}
+light_at_infinity!(EnvironmentMap, |l| Some(EnvironmentMap::spectrum(l)));
 
 #[cfg(test)]
 mod tests {

@@ -12,6 +12,8 @@
 //!   at lights (light tracing, bidirectional methods, photons).
 //! - `power`: for the selection distribution ([`PowerSelection`]).
 
+#[macro_use]
+mod at_infinity;
 mod area;
 mod directional;
 mod environment;

@@ -12,8 +12,8 @@ use glam::{Vec2, Vec3};
 
 use super::hosek_wilkie::{band_weights, SkyModel, SkyView, BANDS};
 use super::lat_long::{grid_direction, SphericalDistribution};
-use super::{LightLeSample, LightLiSample, LightSource, SceneSphere};
-use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths, Spectrum};
+use super::{LightLeSample, LightLiSample, SceneSphere};
+use crate::spectrum::{cie, SampledSpectrum, SampledWavelengths};
 
 /// Sampling grid: 1.4° cells, fine for the sky's smooth gradients and its
 /// circumsolar brightening; the sun itself is sampled as a disc.
@@ -140,67 +140,8 @@ fn band_radiances(model: &SkyModel, sun: Vec3, w: Vec3) -> [f32; BANDS] {
     std::array::from_fn(|b| model.sky_band(b, &view))
 }
 
-/// What the light must answer whole: see `LightSource` (light/mod.rs).
-impl LightSource for Sky {
-    fn is_delta(&self) -> bool {
-        false
-    }
-
-    fn is_infinite(&self) -> bool {
-        true
-    }
-
-    fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
-        self.with_scene(sphere)
-    }
-
-    fn power(&self) -> f64 {
-        Sky::power(self)
-    }
-
-    /// The sky model's spectrum varies over the dome: it counts as flat.
-    fn spectrum(&self) -> Option<&Spectrum> {
-        None
-    }
-
-    #[inline]
-    fn sample_li(&self, _: Vec3, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        Sky::sample_li(self, u, wl)
-    }
-
-    /// Only escaped rays (no point on the light) find it.
-    #[inline]
-    fn pdf_li(&self, _: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
-        match p_light {
-            None => Sky::pdf_li(self, wi),
-            Some(_) => 0.0,
-        }
-    }
-
-    #[inline]
-    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
-        SampledSpectrum::ZERO
-    }
-
-    /// `dir` travels away from the scene: the light seen that way.
-    #[inline]
-    fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        self.radiance(dir, wl)
-    }
-
-    fn sample_le(
-        &self,
-        u_pos: (f32, f32),
-        u_dir: (f32, f32),
-        wl: &SampledWavelengths,
-    ) -> Option<LightLeSample> {
-        Sky::sample_le(self, u_pos, u_dir, wl)
-    }
-
-    fn pdf_le(&self, _: Vec2, dir: Vec3) -> (f32, f32) {
-        Sky::pdf_le(self, dir)
-    }
-}
+// The sky model's spectrum varies over the dome: it counts as flat.
+light_at_infinity!(Sky, |_l| None);
 
 #[cfg(test)]
 mod tests {

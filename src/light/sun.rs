@@ -11,12 +11,12 @@
 use std::f32::consts::PI;
 use std::sync::Arc;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use super::hosek_wilkie::{band_weights, SkyModel, BANDS, SUN_DIAMETER_DEGREES};
-use super::{LightLeSample, LightLiSample, LightSource, SceneSphere};
+use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::geometry::Frame;
-use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 #[derive(Clone, Debug)]
 pub struct Sun {
@@ -178,67 +178,8 @@ impl Sun {
     }
 }
 
-/// What the light must answer whole: see `LightSource` (light/mod.rs).
-impl LightSource for Sun {
-    fn is_delta(&self) -> bool {
-        false
-    }
-
-    fn is_infinite(&self) -> bool {
-        true
-    }
-
-    fn with_scene_bounds(self, sphere: SceneSphere) -> Self {
-        self.with_scene(sphere)
-    }
-
-    fn power(&self) -> f64 {
-        Sun::power(self)
-    }
-
-    /// The sky model's spectrum varies over the dome: it counts as flat.
-    fn spectrum(&self) -> Option<&Spectrum> {
-        None
-    }
-
-    #[inline]
-    fn sample_li(&self, _: Vec3, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        Sun::sample_li(self, u, wl)
-    }
-
-    /// Only escaped rays (no point on the light) find it.
-    #[inline]
-    fn pdf_li(&self, _: Vec3, wi: Vec3, p_light: Option<Vec3>) -> f32 {
-        match p_light {
-            None => Sun::pdf_li(self, wi),
-            Some(_) => 0.0,
-        }
-    }
-
-    #[inline]
-    fn l(&self, _: Vec2, _: Vec3, _: &SampledWavelengths) -> SampledSpectrum {
-        SampledSpectrum::ZERO
-    }
-
-    /// `dir` travels away from the scene: the light seen that way.
-    #[inline]
-    fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        self.radiance(dir, wl)
-    }
-
-    fn sample_le(
-        &self,
-        u_pos: (f32, f32),
-        u_dir: (f32, f32),
-        wl: &SampledWavelengths,
-    ) -> Option<LightLeSample> {
-        Sun::sample_le(self, u_pos, u_dir, wl)
-    }
-
-    fn pdf_le(&self, _: Vec2, dir: Vec3) -> (f32, f32) {
-        Sun::pdf_le(self, dir)
-    }
-}
+// The sky model's spectrum varies over the dome: it counts as flat.
+light_at_infinity!(Sun, |_l| None);
 
 #[cfg(test)]
 mod tests {
