@@ -16,15 +16,11 @@
 use super::interface::transmittance;
 use super::light_path::{self, Scatterer};
 use super::walk::PathContext;
+use super::IntegratorSpec;
 use super::{lens_sample, PathCounters, PixelSample};
-use super::{Integrate, IntegratorSpec};
-use crate::camera::Camera;
 use crate::camera::CameraSample;
-use crate::drive::{
-    splats::{self, SplatEstimator},
-    RenderError, RenderJob, RenderOptions, RenderStats,
-};
-use crate::film::{Film, FilmSettings, FilmTile};
+use crate::drive::splats::SplatEstimator;
+use crate::film::FilmTile;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightSource;
@@ -81,28 +77,7 @@ impl SplatEstimator for LightTracer {
     }
 }
 
-impl Integrate for LightTracer {
-    fn check(
-        &self,
-        camera: &Camera,
-        film: &FilmSettings,
-        options: &RenderOptions,
-    ) -> Result<(), RenderError> {
-        splats::check("light", camera, film, options)
-    }
-
-    fn loop_memory(&self, _: &Scene, film: &FilmSettings, options: &RenderOptions) -> (u64, u64) {
-        splats::memory(self, film, options)
-    }
-
-    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
-        splats::render(job, self)
-    }
-
-    fn max_depth(&self) -> u32 {
-        self.max_depth
-    }
-}
+renders_by_splats!(LightTracer, "light");
 
 impl LightTracer {
     /// Traces one light path and splats its connections to the camera

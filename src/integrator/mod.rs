@@ -4,6 +4,8 @@
 //! job, with a loop of its own or a shared driver's (`crate::drive`). The
 //! list of integrators is one macro call, `integrators!`, below.
 
+#[macro_use]
+mod drivers;
 pub mod aov;
 mod bdpt;
 mod interface;

@@ -6,14 +6,9 @@
 use super::interface::{stack_towards, transmittance};
 use super::ior_stack::{Entry, IorStack};
 use super::walk::{self, Event, Flow, PathContext, Scatterer, Visitor, Walk};
-use super::{camera_ray, Integrate, IntegratorSpec, PixelSample, MAX_SPLIT};
+use super::{camera_ray, IntegratorSpec, PixelSample, MAX_SPLIT};
 use super::{power_heuristic, PathCounters, Strategy};
-use crate::camera::Camera;
-use crate::drive::{
-    pixels::{self, PixelEstimator},
-    RenderError, RenderJob, RenderOptions, RenderStats,
-};
-use crate::film::{Film, FilmSettings};
+use crate::drive::pixels::PixelEstimator;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
@@ -110,33 +105,7 @@ impl PixelEstimator for PathTracer {
     }
 }
 
-impl Integrate for PathTracer {
-    fn check(
-        &self,
-        _: &Camera,
-        _: &FilmSettings,
-        options: &RenderOptions,
-    ) -> Result<(), RenderError> {
-        pixels::check(options)
-    }
-
-    fn loop_memory(
-        &self,
-        scene: &Scene,
-        film: &FilmSettings,
-        options: &RenderOptions,
-    ) -> (u64, u64) {
-        pixels::memory(self, scene, film, options)
-    }
-
-    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
-        pixels::render(job, self)
-    }
-
-    fn max_depth(&self) -> u32 {
-        self.max_depth
-    }
-}
+renders_by_pixels!(PathTracer);
 
 impl PathTracer {
     /// Radiance arriving along `ray` (unit direction) at the path's wavelengths.

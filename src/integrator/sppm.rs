@@ -36,14 +36,9 @@ use rayon::prelude::*;
 use super::light_path::{self, Scatterer};
 use super::path::{PathTracer, Stop};
 use super::walk::PathContext;
+use super::IntegratorSpec;
 use super::{camera_ray, PathCounters, PixelSample, Strategy};
-use super::{Integrate, IntegratorSpec};
-use crate::camera::Camera;
-use crate::drive::{
-    pixels::{self, PixelEstimator},
-    RenderError, RenderJob, RenderOptions, RenderStats,
-};
-use crate::film::{Film, FilmSettings};
+use crate::drive::pixels::PixelEstimator;
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -147,33 +142,7 @@ impl PixelEstimator for Sppm {
     }
 }
 
-impl Integrate for Sppm {
-    fn check(
-        &self,
-        _: &Camera,
-        _: &FilmSettings,
-        options: &RenderOptions,
-    ) -> Result<(), RenderError> {
-        pixels::check(options)
-    }
-
-    fn loop_memory(
-        &self,
-        scene: &Scene,
-        film: &FilmSettings,
-        options: &RenderOptions,
-    ) -> (u64, u64) {
-        pixels::memory(self, scene, film, options)
-    }
-
-    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
-        pixels::render(job, self)
-    }
-
-    fn max_depth(&self) -> u32 {
-        self.max_depth
-    }
-}
+renders_by_pixels!(Sppm);
 
 impl Default for Sppm {
     fn default() -> Self {

@@ -32,14 +32,10 @@ use std::cell::RefCell;
 use super::ior_stack::IorStack;
 use super::light_path;
 use super::walk::PathContext;
+use super::IntegratorSpec;
 use super::{camera_ray, PathCounters, PixelSample};
-use super::{Integrate, IntegratorSpec};
-use crate::camera::Camera;
-use crate::drive::{
-    splats::{self, SplatEstimator},
-    RenderError, RenderJob, RenderOptions, RenderStats,
-};
-use crate::film::{Film, FilmSettings, FilmTile};
+use crate::drive::splats::SplatEstimator;
+use crate::film::FilmTile;
 use crate::geometry::Ray;
 use crate::light::LightSource;
 use crate::material::TransportMode;
@@ -103,28 +99,7 @@ impl SplatEstimator for Bdpt {
     }
 }
 
-impl Integrate for Bdpt {
-    fn check(
-        &self,
-        camera: &Camera,
-        film: &FilmSettings,
-        options: &RenderOptions,
-    ) -> Result<(), RenderError> {
-        splats::check("bdpt", camera, film, options)
-    }
-
-    fn loop_memory(&self, _: &Scene, film: &FilmSettings, options: &RenderOptions) -> (u64, u64) {
-        splats::memory(self, film, options)
-    }
-
-    fn render(&self, job: RenderJob) -> (Film, RenderStats) {
-        splats::render(job, self)
-    }
-
-    fn max_depth(&self) -> u32 {
-        self.max_depth
-    }
-}
+renders_by_splats!(Bdpt, "bdpt");
 
 thread_local! {
     /// The two subpaths of the sample being traced, reused so that no
