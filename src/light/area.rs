@@ -2,15 +2,15 @@
 //! texture where there is one), one- or two-sided, sampled uniformly by area.
 //! A triangle of a cut-out material emits only where it is present.
 
-use std::f32::consts::PI;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
-use super::{Emitter, LightLeSample, LightLiSample, LightPoint, LightSource, SceneSphere};
+use super::{
+    cosine_emission, cosine_emission_pdf, Emitter, LightLeSample, LightLiSample, LightPoint,
+    LightSource, SceneSphere,
+};
 use crate::geometry::gamma;
-use crate::geometry::Frame;
-use crate::material::cosine_hemisphere;
 use crate::material::cutout::Cutout;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
@@ -167,20 +167,7 @@ impl AreaLight {
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
         let lp = self.sample_point(u_pos);
-        let (mut u0, mut side) = (u_dir.0, 1.0);
-        if self.two_sided {
-            // Reuse the first dimension: its lower half picks the back.
-            if u0 < 0.5 {
-                side = -1.0;
-                u0 *= 2.0;
-            } else {
-                u0 = 2.0 * u0 - 1.0;
-            }
-            u0 = u0.min(1.0 - f32::EPSILON / 2.0);
-        }
-        let n = self.n * side;
-        let local = cosine_hemisphere((u0, u_dir.1));
-        let dir = Frame::from_normal(n).to_world(local);
+        let (dir, n) = cosine_emission(self.n, self.two_sided, u_dir);
         let le = self.sampled_l(lp.uv, dir, wl);
         let (pdf_pos, pdf_dir) = self.pdf_le(dir);
         if le == SampledSpectrum::ZERO || pdf_dir == 0.0 {
@@ -198,12 +185,7 @@ impl AreaLight {
     /// Densities of `sample_le` for a ray leaving in `dir`: per area, per
     /// solid angle.
     pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
-        let cos = self.n.dot(dir);
-        let pdf_dir = if self.two_sided {
-            0.5 * cos.abs() / PI
-        } else {
-            cos.max(0.0) / PI
-        };
+        let pdf_dir = cosine_emission_pdf(self.n, self.two_sided, dir);
         (1.0 / self.area, pdf_dir)
     }
 }

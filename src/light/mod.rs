@@ -142,6 +142,35 @@ impl SceneSphere {
     }
 }
 
+/// A cosine-weighted direction leaving a surface of front normal `n`
+/// (either side, evenly, when `two_sided`: the first number's lower half
+/// picks the back), and the normal of the side it leaves.
+pub(crate) fn cosine_emission(n: Vec3, two_sided: bool, u: (f32, f32)) -> (Vec3, Vec3) {
+    let (mut u0, mut side) = (u.0, 1.0);
+    if two_sided {
+        if u0 < 0.5 {
+            side = -1.0;
+            u0 *= 2.0;
+        } else {
+            u0 = 2.0 * u0 - 1.0;
+        }
+        u0 = u0.min(1.0 - f32::EPSILON / 2.0);
+    }
+    let n = n * side;
+    let dir = Frame::from_normal(n).to_world(crate::material::cosine_hemisphere((u0, u.1)));
+    (dir, n)
+}
+
+/// The solid-angle density of `cosine_emission` for `dir`.
+pub(crate) fn cosine_emission_pdf(n: Vec3, two_sided: bool, dir: Vec3) -> f32 {
+    let cos = n.dot(dir);
+    if two_sided {
+        0.5 * cos.abs() / PI
+    } else {
+        cos.max(0.0) / PI
+    }
+}
+
 /// A point on a light, with what a robust shadow ray needs.
 #[derive(Clone, Copy, Debug)]
 pub struct LightPoint {

@@ -7,10 +7,12 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
-use super::{Emitter, LightLeSample, LightLiSample, LightPoint, LightSource, SceneSphere};
+use super::{
+    cosine_emission, cosine_emission_pdf, Emitter, LightLeSample, LightLiSample, LightPoint,
+    LightSource, SceneSphere,
+};
 use crate::geometry::sphere::Sphere;
 use crate::geometry::Frame;
-use crate::material::cosine_hemisphere;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
 #[derive(Clone, Debug)]
@@ -215,18 +217,7 @@ impl LightSource for SphereLight {
     ) -> Option<LightLeSample> {
         let out = Self::uniform_normal(u_pos);
         let lp = self.point(out);
-        let (mut u0, mut side) = (u_dir.0, 1.0);
-        if self.two_sided {
-            if u0 < 0.5 {
-                side = -1.0;
-                u0 *= 2.0;
-            } else {
-                u0 = 2.0 * u0 - 1.0;
-            }
-            u0 = u0.min(1.0 - f32::EPSILON / 2.0);
-        }
-        let n = lp.n * side;
-        let dir = Frame::from_normal(n).to_world(cosine_hemisphere((u0, u_dir.1)));
+        let (dir, n) = cosine_emission(lp.n, self.two_sided, u_dir);
         let le = self.radiance(out, lp.uv, dir, wl);
         let (pdf_pos, pdf_dir) = self.pdf_le(lp.uv, dir);
         if le == SampledSpectrum::ZERO || pdf_dir == 0.0 {
@@ -242,12 +233,8 @@ impl LightSource for SphereLight {
     }
 
     fn pdf_le(&self, uv: Vec2, dir: Vec3) -> (f32, f32) {
-        let cos = self.front(self.sphere.normal_at(uv)).dot(dir);
-        let pdf_dir = if self.two_sided {
-            0.5 * cos.abs() / PI
-        } else {
-            cos.max(0.0) / PI
-        };
+        let front = self.front(self.sphere.normal_at(uv));
+        let pdf_dir = cosine_emission_pdf(front, self.two_sided, dir);
         (1.0 / self.sphere.area(), pdf_dir)
     }
 }
