@@ -18,6 +18,7 @@ mod area;
 mod directional;
 mod environment;
 mod environment_map;
+mod examples;
 mod hosek_wilkie;
 mod lat_long;
 mod point;
@@ -296,6 +297,29 @@ macro_rules! lights {
         #[derive(Clone, Debug)]
         pub enum Light {
             $($(#[doc = $doc])* $variant($ty),)*
+        }
+
+        /// Which kind of light, without its parameters: `LightKind::ALL`
+        /// enumerates the list, and `LightKind::example` (light/examples.rs)
+        /// makes one of each, so tests that must cover every light iterate
+        /// them.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum LightKind {
+            $($variant,)*
+        }
+
+        impl LightKind {
+            /// Every kind of light, in the list's order.
+            pub const ALL: &'static [LightKind] = &[$(LightKind::$variant,)*];
+        }
+
+        impl Light {
+            /// Which kind of light this is.
+            pub fn kind(&self) -> LightKind {
+                match self {
+                    $(Light::$variant(_) => LightKind::$variant,)*
+                }
+            }
         }
 
         impl Light {
