@@ -300,13 +300,35 @@ fn default_reflectance() -> SpectrumSpec {
     SpectrumSpec::Constant(0.5)
 }
 
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum ShapeKind {
-    Obj,
-    Gltf,
-    Quad,
-    Sphere,
+/// The list of shape types, one line each: the `type` a `[[shape]]` names.
+/// `ShapeKind::ALL` enumerates them, so tests that must cover every shape
+/// iterate it (and match each kind exhaustively for an example).
+macro_rules! shape_kinds {
+    ($($kind:ident => $name:literal,)*) => {
+        #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+        pub enum ShapeKind {
+            $(#[serde(rename = $name)] $kind,)*
+        }
+
+        impl ShapeKind {
+            /// Every shape type.
+            pub const ALL: &'static [ShapeKind] = &[$(ShapeKind::$kind,)*];
+
+            /// The `type` the scene file gives.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(ShapeKind::$kind => $name,)*
+                }
+            }
+        }
+    };
+}
+
+shape_kinds! {
+    Obj => "obj",
+    Gltf => "gltf",
+    Quad => "quad",
+    Sphere => "sphere",
 }
 
 /// A shape. Which keys apply depends on `type`; the loader rejects the others.
