@@ -39,12 +39,13 @@ pub trait SplatEstimator: Sync {
 
 /// Refuses what this driver cannot do: a camera that light paths cannot
 /// reach, a region, an error target, adaptive sampling.
-pub fn check(
-    name: &'static str,
+pub fn check<E: SplatEstimator>(
+    estimator: &E,
     camera: &Camera,
     film: &FilmSettings,
     options: &RenderOptions,
 ) -> Result<(), RenderError> {
+    let name = estimator.name();
     if !camera.connectible() {
         return Err(RenderError::SplatOrthographic(name));
     }

@@ -97,9 +97,7 @@ impl Sphere {
     /// point projected onto the sphere, its normal and coordinates.
     fn hit_at(&self, local: DVec3, t: f32) -> SphereHit {
         let n = local.normalize();
-        let on_sphere = (n * self.radius as f64).as_vec3();
-        let p = self.centre + on_sphere;
-        let p_err = gamma(5) * on_sphere.abs() + gamma(1) * p.abs();
+        let (p, p_err) = self.placed((n * self.radius as f64).as_vec3());
         let n = n.as_vec3();
         let (uv, dpdu) = self.coordinates(n);
         SphereHit {
@@ -141,7 +139,12 @@ impl Sphere {
 
     /// The point of outward normal `n` with its error bound.
     pub fn point_at(&self, n: Vec3) -> (Vec3, Vec3) {
-        let on_sphere = n * self.radius;
+        self.placed(n * self.radius)
+    }
+
+    /// The point `on_sphere` from the centre (on the surface, to rounding),
+    /// and a bound on its error: the projection's and the centre's sum's.
+    fn placed(&self, on_sphere: Vec3) -> (Vec3, Vec3) {
         let p = self.centre + on_sphere;
         (p, gamma(5) * on_sphere.abs() + gamma(1) * p.abs())
     }

@@ -2,7 +2,7 @@
 //! `crate::drive`, written once: `renders_by_pixels!` for a
 //! `PixelEstimator` (samples measure their own pixel), `renders_by_splats!`
 //! for a `SplatEstimator` (samples add light to any pixel). Each takes the
-//! type; the splatting one also its name, for messages.
+//! type.
 
 macro_rules! renders_by_pixels {
     ($ty:ty) => {
@@ -40,7 +40,7 @@ macro_rules! renders_by_pixels {
 }
 
 macro_rules! renders_by_splats {
-    ($ty:ty, $name:literal) => {
+    ($ty:ty) => {
         impl $crate::integrator::Integrate for $ty {
             fn check(
                 &self,
@@ -48,7 +48,7 @@ macro_rules! renders_by_splats {
                 film: &$crate::film::FilmSettings,
                 options: &$crate::drive::RenderOptions,
             ) -> Result<(), $crate::drive::RenderError> {
-                $crate::drive::splats::check($name, camera, film, options)
+                $crate::drive::splats::check(self, camera, film, options)
             }
 
             fn loop_memory(

@@ -77,7 +77,7 @@ impl SplatEstimator for LightTracer {
     }
 }
 
-renders_by_splats!(LightTracer, "light");
+renders_by_splats!(LightTracer);
 
 impl LightTracer {
     /// Traces one light path and splats its connections to the camera

@@ -169,21 +169,39 @@ impl PathTracer {
         visitor.l
     }
 
-    /// Next-event estimation at the surface of `event`, weighted by what
-    /// the path carries (zero, with its numbers skipped, where the strategy
-    /// or a Dirac BSDF rules it out).
+    /// Next-event estimation at `event` (a surface, or a point in a
+    /// medium), weighted by what the path carries (zero, with its numbers
+    /// skipped, where the strategy or a Dirac BSDF rules it out).
     fn direct(&self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> SampledSpectrum {
-        let Scatterer::Surface { hit, bsdf, medium } = event.at else {
-            return SampledSpectrum::ZERO;
-        };
-        if self.strategy != Strategy::Bsdf && !bsdf.is_specular() {
-            let direct = self.sample_direct(ctx, hit, event.wo, bsdf, &walk.stack, medium);
-            walk.flight.weight(ctx.wl) * direct
-        } else {
+        let ruled_out = self.strategy == Strategy::Bsdf
+            || matches!(event.at, Scatterer::Surface { bsdf, .. } if bsdf.is_specular());
+        if ruled_out {
             // Keep the dimensions of later bounces aligned across samples.
             ctx.sampler.skip_4d();
-            SampledSpectrum::ZERO
+            return SampledSpectrum::ZERO;
         }
+        let direct = match event.at {
+            Scatterer::Surface { hit, bsdf, medium } => {
+                self.sample_direct(ctx, hit, event.wo, bsdf, &walk.stack, medium)
+            }
+            Scatterer::Medium { p, phase } => {
+                let dir_in = -event.wo;
+                self.sample_direct_from(
+                    ctx,
+                    p,
+                    |wi| {
+                        let f = phase.p(dir_in, wi);
+                        (SampledSpectrum::splat(f), f)
+                    },
+                    |wi, to| match to {
+                        Some(lp) => Ray::towards(p, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi)),
+                        None => Ray::new(p, wi),
+                    },
+                    |_| walk.stack,
+                )
+            }
+        };
+        walk.flight.weight(ctx.wl) * direct
     }
 
     /// The weight of emission that the path found by BSDF sampling: all of
@@ -323,28 +341,8 @@ impl Visitor for Gather<'_, '_> {
     fn scatter_from(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> Flow {
         let tracer = self.tracer;
         match event.at {
-            Scatterer::Medium { p, phase } => {
-                if tracer.strategy != Strategy::Bsdf {
-                    let dir_in = -event.wo;
-                    let direct = tracer.sample_direct_from(
-                        ctx,
-                        p,
-                        |wi| {
-                            let f = phase.p(dir_in, wi);
-                            (SampledSpectrum::splat(f), f)
-                        },
-                        |wi, to| match to {
-                            Some(lp) => {
-                                Ray::towards(p, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi))
-                            }
-                            None => Ray::new(p, wi),
-                        },
-                        |_| walk.stack,
-                    );
-                    self.l += walk.flight.weight(ctx.wl) * direct;
-                } else {
-                    ctx.sampler.skip_4d();
-                }
+            Scatterer::Medium { .. } => {
+                self.l += tracer.direct(ctx, walk, event);
                 Flow::Go
             }
             Scatterer::Surface { hit, bsdf, medium } => {

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
+use super::point::sphere_direction;
 use super::{
     cosine_emission, cosine_emission_pdf, Emitter, LightLeSample, LightLiSample, LightPoint,
     LightSource, SceneSphere,
@@ -114,14 +115,6 @@ impl SphereLight {
         let (hit, _) = self.sphere.point_at(out);
         ((hit - p).normalize(), out)
     }
-
-    /// The outward normal of a uniform point of the sphere.
-    fn uniform_normal(u: (f32, f32)) -> Vec3 {
-        let z = 1.0 - 2.0 * u.0;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.1;
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
-    }
 }
 
 /// What the light must answer whole: see `LightSource` (light/mod.rs).
@@ -161,7 +154,7 @@ impl LightSource for SphereLight {
         let (wi, out) = if self.outside(p_ref) {
             self.sample_cone(p_ref, u)
         } else {
-            let out = Self::uniform_normal(u);
+            let out = sphere_direction(1.0 - 2.0 * u.0, u.1);
             let (p, _) = self.sphere.point_at(out);
             ((p - p_ref).normalize(), out)
         };
@@ -215,7 +208,7 @@ impl LightSource for SphereLight {
         u_dir: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
-        let out = Self::uniform_normal(u_pos);
+        let out = sphere_direction(1.0 - 2.0 * u_pos.0, u_pos.1);
         let lp = self.point(out);
         let (dir, n) = cosine_emission(lp.n, self.two_sided, u_dir);
         let le = self.radiance(out, lp.uv, dir, wl);

@@ -99,7 +99,7 @@ impl SplatEstimator for Bdpt {
     }
 }
 
-renders_by_splats!(Bdpt, "bdpt");
+renders_by_splats!(Bdpt);
 
 thread_local! {
     /// The two subpaths of the sample being traced, reused so that no
