@@ -257,13 +257,14 @@ fn other_integrator(
     kind: IntegratorKind,
     split: Option<u32>,
 ) -> Result<Integrator> {
-    let spec = IntegratorSpec {
-        kind,
-        max_depth: Some(loaded.max_depth()),
-        split: split.filter(|_| kind == IntegratorKind::Path),
-        ..Default::default()
-    };
-    Integrator::from_spec(&spec).map_err(|e| anyhow::anyhow!("--integrator {}: {e}", kind.name()))
+    let named = |e| anyhow::anyhow!("--integrator {}: {e}", kind.name());
+    let mut spec = IntegratorSpec::of(kind);
+    spec.set("max_depth", i64::from(loaded.max_depth()))
+        .map_err(named)?;
+    if let Some(n) = split.filter(|_| kind == IntegratorKind::Path) {
+        spec.set("split", i64::from(n)).map_err(named)?;
+    }
+    Integrator::from_spec(&spec).map_err(named)
 }
 
 #[cfg(test)]

@@ -29,5 +29,6 @@ pub mod merge;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod schema;
 pub mod spectrum;
 pub mod texture;

@@ -225,7 +225,7 @@ fn max_depth_moved_to_the_integrator() {
         "{CAMERA}[integrator]\ntype = \"light\"\nstrategy = \"nee\"\n"
     ));
     assert!(
-        e.contains("integrator.strategy") && e.contains("path tracer"),
+        e.contains("integrator.strategy") && e.contains("applies to `path`, not to `light`"),
         "{e}"
     );
     let e = error(&format!(
@@ -236,7 +236,7 @@ fn max_depth_moved_to_the_integrator() {
         "{CAMERA}[integrator]\ntype = \"sppm\"\nsplit = 4\n"
     ));
     assert!(
-        e.contains("integrator.split") && e.contains("path tracer"),
+        e.contains("integrator.split") && e.contains("applies to `path`"),
         "{e}"
     );
     for bad in [0, 257] {

@@ -48,10 +48,7 @@ fn assert_same(a: &Film, b: &Film, what: &str) {
 fn one_load_renders_under_every_integrator() {
     let loaded = cornell(Overrides::default());
     for &kind in IntegratorKind::ALL {
-        let spec = IntegratorSpec {
-            kind,
-            ..Default::default()
-        };
+        let spec = IntegratorSpec::of(kind);
         let settings = RenderSettings {
             integrator: Integrator::from_spec(&spec).unwrap(),
             ..loaded.settings.clone()
@@ -125,4 +122,69 @@ fn one_photon_mapper_sizes_each_scene_by_its_own_photons() {
     assert_ne!(in_room, on_floor, "the scenes should differ for this test");
     assert_eq!(photons(&shared, &floor), on_floor);
     assert_eq!(photons(&shared, &room), in_room);
+}
+
+/// One schema per integrator: a key of another integrator is refused,
+/// naming the integrator it belongs to; `--integrator` drops it with a
+/// warning instead.
+#[test]
+fn every_integrator_refuses_the_keys_of_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
+    let (mut checked, mut moved_checked) = (0, 0);
+    for &kind in IntegratorKind::ALL {
+        for &other in IntegratorKind::ALL {
+            for &key in other.own_keys() {
+                if kind.own_keys().contains(&key) {
+                    continue;
+                }
+                let text = format!(
+                    "{camera}[integrator]\ntype = \"{}\"\n{key} = 1\n",
+                    other.name()
+                );
+                let file = dir.path().join("s.toml");
+                std::fs::write(&file, &text).unwrap();
+                let moved = prism::load::load_with(
+                    &file,
+                    &Overrides {
+                        integrator: Some(kind),
+                        ..Default::default()
+                    },
+                );
+                // The value 1 may be out of range for `other`: only the
+                // move to `kind` is checked here.
+                if let Ok(moved) = moved {
+                    assert_eq!(moved.settings.integrator.kind(), kind);
+                    assert!(
+                        moved.report.warnings.iter().any(|w| w.contains(&format!(
+                            "`integrator.{key}` does not apply to `{}`",
+                            kind.name()
+                        ))),
+                        "{:?}",
+                        moved.report.warnings
+                    );
+                    moved_checked += 1;
+                }
+                let text = text.replace(other.name(), kind.name());
+                let e = match prism::load::load_str(&text, dir.path()) {
+                    Ok(_) => panic!("{kind:?} took `{key}` of {other:?}"),
+                    Err(e) => e.to_string(),
+                };
+                assert!(
+                    e.contains(&format!(
+                        "`integrator.{key}` applies to `{}`, not to `{}`",
+                        other.name(),
+                        kind.name()
+                    )) && e.contains(&format!("6 | {key} = 1")),
+                    "{e}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    // Every key but `strategy` (a name, not 1) moves.
+    assert!(
+        checked >= 6 && moved_checked >= checked - 3,
+        "{checked} keys checked, {moved_checked} moved"
+    );
 }

@@ -61,3 +61,35 @@ fn every_shape_type_loads_and_stands_where_it_is_put() {
         assert!(hit.ng.dot(ray.dir) < 0.0, "{kind:?}: normal {}", hit.ng);
     }
 }
+
+/// One schema per type: every key of another shape type that this type
+/// does not take is refused, and the error names the key in full with the
+/// line it is on.
+#[test]
+fn every_shape_type_refuses_the_keys_of_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    for &kind in ShapeKind::ALL {
+        let (keys, _) = example(kind, dir.path());
+        for &other in ShapeKind::ALL {
+            for &key in other.keys() {
+                if kind.keys().contains(&key) {
+                    continue;
+                }
+                let text = format!(
+                    "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n\
+                     [[shape]]\ntype = \"{}\"\n{keys}\n{key} = 1\n",
+                    kind.name()
+                );
+                let e = match load_str(&text, dir.path()) {
+                    Ok(_) => panic!("{kind:?} took `{key}` of {other:?}"),
+                    Err(e) => e.to_string(),
+                };
+                assert!(
+                    e.contains(&format!("`shape[0].{key}` does not apply"))
+                        && e.contains(&format!("line 7, column 1\n  |\n7 | {key} = 1")),
+                    "{kind:?} with `{key}`: {e}"
+                );
+            }
+        }
+    }
+}

@@ -16,8 +16,8 @@
 use super::interface::transmittance;
 use super::light_path::{self, Scatterer};
 use super::walk::PathContext;
-use super::IntegratorSpec;
 use super::{lens_sample, PathCounters, PixelSample};
+use super::{CommonParams, Configure, NoParams};
 use crate::camera::CameraSample;
 use crate::drive::splats::SplatEstimator;
 use crate::film::FilmTile;
@@ -46,12 +46,14 @@ impl Default for LightTracer {
     }
 }
 
-impl LightTracer {
-    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+impl Configure for LightTracer {
+    type Params = NoParams;
+
+    fn configure(common: &CommonParams, _: NoParams) -> Result<Self, String> {
         let d = LightTracer::default();
         Ok(LightTracer {
-            max_depth: spec.max_depth.unwrap_or(d.max_depth),
-            rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+            max_depth: common.max_depth.unwrap_or(d.max_depth),
+            rr_depth: common.rr_depth.unwrap_or(d.rr_depth),
         })
     }
 }

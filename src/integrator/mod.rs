@@ -35,7 +35,7 @@ use crate::spectrum::SampledSpectrum;
 
 /// How the path tracer finds direct light. All converge to the same image;
 /// `Mis` has the least noise.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, serde::Serialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Strategy {
     /// Light sampling and BSDF sampling, combined by MIS.
@@ -50,79 +50,142 @@ pub enum Strategy {
 /// Most continuations a path tracer's camera sample may split into.
 pub const MAX_SPLIT: u32 = 256;
 
-/// The `[integrator]` table: which integrator, and its parameters (each
-/// applies to the integrators that name it in README.md).
-#[derive(Debug, Default, Deserialize)]
+/// The keys of `[integrator]` that every integrator takes.
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct IntegratorSpec {
-    #[serde(default, rename = "type")]
-    pub kind: IntegratorKind,
+pub struct CommonParams {
     /// Most bounces: 1 is direct lighting only (default 16).
     pub max_depth: Option<u32>,
     /// Bounces before Russian roulette may end a path (default 3).
     pub rr_depth: Option<u32>,
-    /// How the path tracer finds direct light: "mis" (default), "nee" or "bsdf".
-    pub strategy: Option<Strategy>,
-    /// Path tracer: continuations per camera sample from its first surface
-    /// (default 1: no splitting).
-    pub split: Option<u32>,
-    /// Photon mapping: photons per iteration.
-    pub photons: Option<u32>,
-    /// Photon mapping: the first iteration's radius (scene units).
-    pub radius: Option<f32>,
-    /// Photon mapping: radius reduction exponent α in (0, 1] (default 2/3;
-    /// 1 keeps the radius, which never converges).
-    pub alpha: Option<f32>,
-    /// Photon mapping: the first iteration's wavelength kernel half-width (nm).
-    pub spectral_radius: Option<f32>,
+}
+
+/// The parameters of an integrator that takes no keys of its own.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoParams {}
+
+/// How an integrator is made from its `[integrator]` table.
+pub trait Configure: Sized {
+    /// Its own keys, beside [`CommonParams`]: a struct that denies
+    /// unknown keys, with `Default` the table without them.
+    type Params: serde::de::DeserializeOwned + Clone + Default + std::fmt::Debug;
+
+    /// The integrator, or an error naming the key at fault.
+    fn configure(common: &CommonParams, params: Self::Params) -> Result<Self, String>;
+}
+
+/// The `[integrator]` table, parsed by the schema of its `type` (the path
+/// tracer when it gives none): the keys every integrator takes, and the
+/// chosen integrator's own. A key of another integrator is an error that
+/// names the integrator it belongs to.
+#[derive(Clone, Debug)]
+pub struct IntegratorSpec {
+    pub common: CommonParams,
+    pub params: IntegratorParams,
+    /// The table as written, without `type`: what an override rewrites.
+    table: toml::Table,
+}
+
+impl Default for IntegratorSpec {
+    fn default() -> Self {
+        Self::of(IntegratorKind::ALL[0])
+    }
 }
 
 impl IntegratorSpec {
-    /// The keys given that apply only to integrators other than `kind`,
-    /// each with the integrator it belongs to.
-    pub fn keys_of_others(&self) -> Vec<(&'static str, &'static str)> {
-        let mut keys = Vec::new();
-        if self.kind != IntegratorKind::Path {
-            for (key, given) in [
-                ("strategy", self.strategy.is_some()),
-                ("split", self.split.is_some()),
-            ] {
-                if given {
-                    keys.push((key, "the path tracer"));
-                }
-            }
-        }
-        if self.kind != IntegratorKind::Sppm {
-            for (key, given) in [
-                ("photons", self.photons.is_some()),
-                ("radius", self.radius.is_some()),
-                ("alpha", self.alpha.is_some()),
-                ("spectral_radius", self.spectral_radius.is_some()),
-            ] {
-                if given {
-                    keys.push((key, "photon mapping (`sppm`)"));
-                }
-            }
-        }
-        keys
+    /// `kind` with every parameter at its default.
+    pub fn of(kind: IntegratorKind) -> Self {
+        Self::parse(kind, toml::Table::new()).expect("an empty table is valid")
     }
 
-    /// Clears the keys of `keys_of_others`; returns their names.
-    pub fn drop_keys_of_others(&mut self) -> Vec<&'static str> {
-        let dropped = self
-            .keys_of_others()
-            .into_iter()
-            .map(|(key, _)| key)
-            .collect();
-        if self.kind != IntegratorKind::Path {
-            (self.strategy, self.split) = (None, None);
-        }
-        if self.kind != IntegratorKind::Sppm {
-            (self.photons, self.radius, self.alpha, self.spectral_radius) =
-                (None, None, None, None);
-        }
-        dropped
+    /// Parses a table as written in the scene file.
+    pub fn from_table(mut table: toml::Table) -> Result<Self, String> {
+        let kind = match table.remove("type") {
+            None => IntegratorKind::ALL[0],
+            Some(v) => IntegratorKind::deserialize(v).map_err(|e| e.message().to_string())?,
+        };
+        Self::parse(kind, table)
     }
+
+    fn parse(kind: IntegratorKind, table: toml::Table) -> Result<Self, String> {
+        let common_keys = crate::schema::keys_of::<CommonParams>();
+        for key in table.keys() {
+            if common_keys.contains(&key.as_str()) || kind.own_keys().contains(&key.as_str()) {
+                continue;
+            }
+            let owners: Vec<String> = IntegratorKind::ALL
+                .iter()
+                .filter(|k| k.own_keys().contains(&key.as_str()))
+                .map(|k| format!("`{}`", k.name()))
+                .collect();
+            return Err(if owners.is_empty() {
+                let keys: Vec<String> = common_keys
+                    .iter()
+                    .chain(kind.own_keys())
+                    .map(|k| format!("`{k}`"))
+                    .collect();
+                format!("unknown field `{key}`, expected one of {}", keys.join(", "))
+            } else {
+                format!(
+                    "`integrator.{key}` applies to {}, not to `{}`",
+                    owners.join(", "),
+                    kind.name()
+                )
+            });
+        }
+        let (common, own): (toml::Table, toml::Table) = table
+            .clone()
+            .into_iter()
+            .partition(|(k, _)| common_keys.contains(&k.as_str()));
+        let common = CommonParams::deserialize(toml::Value::Table(common)).map_err(field_error)?;
+        let params = IntegratorParams::parse(kind, own)?;
+        Ok(Self {
+            common,
+            params,
+            table,
+        })
+    }
+
+    pub fn kind(&self) -> IntegratorKind {
+        self.params.kind()
+    }
+
+    /// Sets one key (an override), checked as if the file gave it.
+    pub fn set(&mut self, key: &str, value: impl Into<toml::Value>) -> Result<(), String> {
+        let mut table = self.table.clone();
+        table.insert(key.to_string(), value.into());
+        *self = Self::parse(self.kind(), table)?;
+        Ok(())
+    }
+
+    /// Whether the table gives `key`.
+    pub fn gives(&self, key: &str) -> bool {
+        self.table.contains_key(key)
+    }
+
+    /// Switches to another integrator (`--integrator`), dropping the keys
+    /// that do not apply to it; returns their names.
+    pub fn switch_to(&mut self, kind: IntegratorKind) -> Result<Vec<String>, String> {
+        let common_keys = crate::schema::keys_of::<CommonParams>();
+        let (kept, dropped): (toml::Table, toml::Table) =
+            self.table.clone().into_iter().partition(|(k, _)| {
+                common_keys.contains(&k.as_str()) || kind.own_keys().contains(&k.as_str())
+            });
+        *self = Self::parse(kind, kept)?;
+        Ok(dropped.into_iter().map(|(k, _)| k).collect())
+    }
+}
+
+impl<'de> Deserialize<'de> for IntegratorSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Self::from_table(toml::Table::deserialize(d)?).map_err(serde::de::Error::custom)
+    }
+}
+
+/// A parameter's error from serde, as the scene file's key.
+fn field_error(e: toml::de::Error) -> String {
+    format!("`[integrator]`: {}", e.message())
 }
 
 /// The list of integrators: each line a variant of [`Integrator`] and of
@@ -147,6 +210,40 @@ macro_rules! integrators {
                     $(IntegratorKind::$variant => $name,)*
                 }
             }
+
+            /// The keys of its own (beside [`CommonParams`]'), from its
+            /// parameters' schema.
+            pub fn own_keys(self) -> &'static [&'static str] {
+                match self {
+                    $(IntegratorKind::$variant => {
+                        crate::schema::keys_of::<<$ty as Configure>::Params>()
+                    })*
+                }
+            }
+        }
+
+        /// The chosen integrator's own parameters.
+        #[derive(Clone, Debug)]
+        pub enum IntegratorParams {
+            $($variant(<$ty as Configure>::Params),)*
+        }
+
+        impl IntegratorParams {
+            /// `kind`'s parameters from its own keys.
+            fn parse(kind: IntegratorKind, own: toml::Table) -> Result<Self, String> {
+                let own = toml::Value::Table(own);
+                Ok(match kind {
+                    $(IntegratorKind::$variant => IntegratorParams::$variant(
+                        <$ty as Configure>::Params::deserialize(own).map_err(field_error)?,
+                    ),)*
+                })
+            }
+
+            pub fn kind(&self) -> IntegratorKind {
+                match self {
+                    $(IntegratorParams::$variant(_) => IntegratorKind::$variant,)*
+                }
+            }
         }
 
         /// An integrator with its parameters.
@@ -158,14 +255,10 @@ macro_rules! integrators {
         impl Integrator {
             /// From the scene file's `[integrator]` table; the error names the key.
             pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
-                if let Some((key, owner)) = spec.keys_of_others().first() {
-                    return Err(format!(
-                        "`integrator.{key}` applies to {owner}, not to `{}`",
-                        spec.kind.name()
-                    ));
-                }
-                Ok(match spec.kind {
-                    $(IntegratorKind::$variant => Integrator::$variant(<$ty>::from_spec(spec)?),)*
+                Ok(match spec.params.clone() {
+                    $(IntegratorParams::$variant(p) => {
+                        Integrator::$variant(<$ty>::configure(&spec.common, p)?)
+                    })*
                 })
             }
 

@@ -6,7 +6,7 @@
 use super::interface::{stack_towards, transmittance};
 use super::ior_stack::{Entry, IorStack};
 use super::walk::{self, Event, Flow, PathContext, Scatterer, Visitor, Walk};
-use super::{camera_ray, IntegratorSpec, PixelSample, MAX_SPLIT};
+use super::{camera_ray, CommonParams, Configure, PixelSample, MAX_SPLIT};
 use super::{power_heuristic, PathCounters, Strategy};
 use crate::drive::pixels::PixelEstimator;
 use crate::geometry::offset::offset_ray_origin;
@@ -17,6 +17,7 @@ use crate::material::{Bsdf, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use serde::Deserialize;
 
 /// A surface a camera path reached, offered to `radiance_until`'s `stop`.
 pub struct Stop<'a, 'c> {
@@ -56,19 +57,32 @@ impl Default for PathTracer {
     }
 }
 
-impl PathTracer {
-    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+/// The path tracer's own keys of `[integrator]`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathParams {
+    /// How direct light is found: "mis" (default), "nee" or "bsdf".
+    pub strategy: Option<Strategy>,
+    /// Continuations per camera sample from its first surface (default 1:
+    /// no splitting).
+    pub split: Option<u32>,
+}
+
+impl Configure for PathTracer {
+    type Params = PathParams;
+
+    fn configure(common: &CommonParams, own: PathParams) -> Result<Self, String> {
         let d = PathTracer::default();
-        let split = spec.split.unwrap_or(d.split);
+        let split = own.split.unwrap_or(d.split);
         if !(1..=MAX_SPLIT).contains(&split) {
             return Err(format!(
                 "`integrator.split` must be between 1 and {MAX_SPLIT}, not {split}"
             ));
         }
         Ok(PathTracer {
-            max_depth: spec.max_depth.unwrap_or(d.max_depth),
-            rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
-            strategy: spec.strategy.unwrap_or(d.strategy),
+            max_depth: common.max_depth.unwrap_or(d.max_depth),
+            rr_depth: common.rr_depth.unwrap_or(d.rr_depth),
+            strategy: own.strategy.unwrap_or(d.strategy),
             split,
         })
     }

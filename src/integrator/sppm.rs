@@ -36,13 +36,14 @@ use rayon::prelude::*;
 use super::light_path::{self, Scatterer};
 use super::path::{PathTracer, Stop};
 use super::walk::PathContext;
-use super::IntegratorSpec;
 use super::{camera_ray, PathCounters, PixelSample, Strategy};
+use super::{CommonParams, Configure};
 use crate::drive::pixels::PixelEstimator;
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use serde::Deserialize;
 
 #[derive(Clone, Debug)]
 pub struct Sppm {
@@ -86,8 +87,26 @@ impl Sppm {
     }
 }
 
-impl Sppm {
-    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+/// Photon mapping's own keys of `[integrator]`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SppmParams {
+    /// Photons per iteration (default: about one stored per pixel).
+    pub photons: Option<u32>,
+    /// The first iteration's radius in scene units (default: four pixels'
+    /// width where the camera looks).
+    pub radius: Option<f32>,
+    /// Radius reduction exponent α in (0, 1] (default 2/3; 1 keeps the
+    /// radius, which never converges).
+    pub alpha: Option<f32>,
+    /// The first iteration's wavelength kernel half-width (nm).
+    pub spectral_radius: Option<f32>,
+}
+
+impl Configure for Sppm {
+    type Params = SppmParams;
+
+    fn configure(common: &CommonParams, spec: SppmParams) -> Result<Self, String> {
         let d = Sppm::default();
         let positive = |key: &str, v: Option<f32>| match v {
             Some(v) if !(v > 0.0 && v.is_finite()) => Err(format!(
@@ -105,8 +124,8 @@ impl Sppm {
             return Err("`integrator.photons` must be at least 1".into());
         }
         Ok(Sppm::new(
-            spec.max_depth.unwrap_or(d.max_depth),
-            spec.rr_depth.unwrap_or(d.rr_depth),
+            common.max_depth.unwrap_or(d.max_depth),
+            common.rr_depth.unwrap_or(d.rr_depth),
             spec.photons,
             positive("radius", spec.radius)?,
             alpha,

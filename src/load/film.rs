@@ -115,13 +115,15 @@ impl Loader {
     /// bounce limit used to be, is still read, with a warning.
     pub(super) fn integrator(&self, file: &mut SceneFile) -> Result<Integrator, SceneError> {
         if let Some(depth) = file.film.max_depth {
-            if file.integrator.max_depth.is_some() {
+            if file.integrator.gives("max_depth") {
                 return Err(self.error(
                     "`film.max_depth` and `integrator.max_depth` both given: keep `integrator.max_depth`",
                 ));
             }
             self.warn("`film.max_depth` has moved to `integrator.max_depth`");
-            file.integrator.max_depth = Some(depth);
+            file.integrator
+                .set("max_depth", i64::from(depth))
+                .map_err(|e| self.error(e))?;
         }
         Integrator::from_spec(&file.integrator).map_err(|e| self.error(e))
     }

@@ -76,42 +76,81 @@ pub struct SkySpec {
 }
 
 /// A `[[light]]`: a point, spot or directional light (area lights are
-/// shapes with `emission`).
+/// shapes with `emission`). The keys of its `type`, beside `scale`.
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct LightSpec {
-    #[serde(rename = "type")]
+    #[serde(flatten)]
+    pub common: LightCommon,
+    #[serde(flatten)]
     pub kind: LightKind,
-    /// point, spot: where the light is.
-    #[serde(default, deserialize_with = "exact::option")]
-    pub position: Option<[f32; 3]>,
-    /// spot: the point the cone's axis goes through.
-    #[serde(default, deserialize_with = "exact::option")]
-    pub look_at: Option<[f32; 3]>,
-    /// directional: the direction the light travels in.
-    #[serde(default, deserialize_with = "exact::option")]
-    pub direction: Option<[f32; 3]>,
-    /// point, spot: radiant intensity per nm, a spectrum.
-    pub intensity: Option<SpectrumSpec>,
-    /// point, spot: total emitted power per nm instead of `intensity`.
-    pub power: Option<SpectrumSpec>,
-    /// directional: irradiance on a surface facing the light, a spectrum.
-    pub irradiance: Option<SpectrumSpec>,
+}
+
+/// The keys every light takes.
+#[derive(Debug, Deserialize)]
+pub struct LightCommon {
     /// Multiplies the spectrum.
     pub scale: Option<f32>,
-    /// spot: half-angle in degrees where the light ends (default 30).
+}
+
+/// The keys every type of a typed table takes (beside those of its type),
+/// by the table's name: what an error for a key of the table lists.
+pub fn keys_every_type_takes(table: &str) -> &'static [&'static str] {
+    match table {
+        "shape" => crate::schema::keys_of::<ShapeCommon>(),
+        "light" => crate::schema::keys_of::<LightCommon>(),
+        _ => &[],
+    }
+}
+
+/// A light's `type`, with the keys that type takes.
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum LightKind {
+    Point(PointLightSpec),
+    Spot(SpotLightSpec),
+    Directional(DirectionalLightSpec),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightSpec {
+    /// Where the light is.
+    #[serde(deserialize_with = "exact::array")]
+    pub position: [f32; 3],
+    /// Radiant intensity per nm, a spectrum.
+    pub intensity: Option<SpectrumSpec>,
+    /// Total emitted power per nm instead of `intensity`.
+    pub power: Option<SpectrumSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightSpec {
+    /// Where the light is.
+    #[serde(deserialize_with = "exact::array")]
+    pub position: [f32; 3],
+    /// The point the cone's axis goes through.
+    #[serde(deserialize_with = "exact::array")]
+    pub look_at: [f32; 3],
+    /// Radiant intensity per nm on the axis, a spectrum.
+    pub intensity: Option<SpectrumSpec>,
+    /// Total emitted power per nm instead of `intensity`.
+    pub power: Option<SpectrumSpec>,
+    /// Half-angle in degrees where the light ends (default 30).
     pub cone_angle: Option<f32>,
-    /// spot: half-angle in degrees where it starts to fall off (default:
+    /// Half-angle in degrees where it starts to fall off (default:
     /// `cone_angle` − 5, at least 0).
     pub falloff_start: Option<f32>,
 }
 
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum LightKind {
-    Point,
-    Spot,
-    Directional,
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalLightSpec {
+    /// The direction the light travels in.
+    #[serde(deserialize_with = "exact::array")]
+    pub direction: [f32; 3],
+    /// Irradiance on a surface facing the light, a spectrum.
+    pub irradiance: SpectrumSpec,
 }
 
 #[derive(Debug, Deserialize)]
@@ -300,14 +339,23 @@ fn default_reflectance() -> SpectrumSpec {
     SpectrumSpec::Constant(0.5)
 }
 
-/// The list of shape types, one line each: the `type` a `[[shape]]` names.
-/// `ShapeKind::ALL` enumerates them, so tests that must cover every shape
-/// iterate it (and match each kind exhaustively for an example).
+/// The list of shape types, one line each: the `type` a `[[shape]]`
+/// names and the struct of the keys that type takes. `ShapeKind::ALL`
+/// enumerates them, so tests that must cover every shape iterate it (and
+/// match each kind exhaustively for an example).
 macro_rules! shape_kinds {
-    ($($kind:ident => $name:literal,)*) => {
-        #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+    ($($kind:ident($spec:ty) => $name:literal,)*) => {
+        /// A shape's `type`, with the keys that type takes.
+        #[derive(Debug, Deserialize)]
+        #[serde(tag = "type")]
+        pub enum ShapeGeometry {
+            $(#[serde(rename = $name)] $kind($spec),)*
+        }
+
+        /// A shape's `type`.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub enum ShapeKind {
-            $(#[serde(rename = $name)] $kind,)*
+            $($kind,)*
         }
 
         impl ShapeKind {
@@ -320,23 +368,44 @@ macro_rules! shape_kinds {
                     $(ShapeKind::$kind => $name,)*
                 }
             }
+
+            /// The keys of this type (beside [`ShapeCommon`]'s), from its schema.
+            pub fn keys(self) -> &'static [&'static str] {
+                match self {
+                    $(ShapeKind::$kind => crate::schema::keys_of::<$spec>(),)*
+                }
+            }
+        }
+
+        impl ShapeGeometry {
+            pub fn kind(&self) -> ShapeKind {
+                match self {
+                    $(ShapeGeometry::$kind(_) => ShapeKind::$kind,)*
+                }
+            }
         }
     };
 }
 
 shape_kinds! {
-    Obj => "obj",
-    Gltf => "gltf",
-    Quad => "quad",
-    Sphere => "sphere",
+    Obj(FileShape) => "obj",
+    Gltf(GltfShape) => "gltf",
+    Quad(QuadShape) => "quad",
+    Sphere(SphereShape) => "sphere",
 }
 
-/// A shape. Which keys apply depends on `type`; the loader rejects the others.
+/// A `[[shape]]`: the keys every shape takes, and those of its `type`.
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct ShapeSpec {
-    #[serde(rename = "type")]
-    pub kind: ShapeKind,
+    #[serde(flatten)]
+    pub common: ShapeCommon,
+    #[serde(flatten)]
+    pub geometry: ShapeGeometry,
+}
+
+/// The keys every shape takes.
+#[derive(Debug, Deserialize)]
+pub struct ShapeCommon {
     /// Name of a material in [materials]; default: diffuse with reflectance 0.5.
     pub material: Option<String>,
     /// Emitted spectral radiance: makes the shape an area light.
@@ -349,24 +418,57 @@ pub struct ShapeSpec {
     #[serde(default)]
     pub flip_normals: bool,
     pub transform: Option<TransformSpec>,
-    /// obj, gltf: path of the file, relative to the scene file.
-    pub file: Option<PathBuf>,
-    /// obj, gltf: only the meshes (glTF) or objects/groups (OBJ) of this name.
+}
+
+/// `type = "obj"`: a Wavefront OBJ file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FileShape {
+    /// Path of the file, relative to the scene file.
+    pub file: PathBuf,
+    /// Only the objects or groups of this name.
     pub mesh: Option<String>,
-    /// obj, gltf: the file's materials to replace, by name → scene material.
+    /// The file's materials to replace, by name → scene material.
     pub materials: Option<BTreeMap<String, String>>,
-    /// quad: four corners in order; the front face is counter-clockwise.
-    #[serde(default, deserialize_with = "exact::quad")]
-    pub vertices: Option<[[f32; 3]; 4]>,
-    /// sphere: centre and radius.
+    /// Interpolate vertex normals (default true).
+    pub smooth: Option<bool>,
+}
+
+/// `type = "gltf"`: a glTF 2.0 file (.gltf or .glb).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GltfShape {
+    /// Path of the file, relative to the scene file.
+    pub file: PathBuf,
+    /// Only the meshes of this name.
+    pub mesh: Option<String>,
+    /// The file's materials to replace, by name → scene material.
+    pub materials: Option<BTreeMap<String, String>>,
+}
+
+/// `type = "quad"`: four corners in order; the front face is
+/// counter-clockwise.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuadShape {
+    #[serde(deserialize_with = "exact::quad")]
+    pub vertices: [[f32; 3]; 4],
+}
+
+/// `type = "sphere"`: exact, or a triangle mesh with `tessellate = true`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereShape {
+    /// The centre (default the origin).
     #[serde(default, deserialize_with = "exact::option")]
     pub center: Option<[f32; 3]>,
-    pub radius: Option<f32>,
-    /// sphere: a triangle mesh instead of the exact sphere (default false).
-    pub tessellate: Option<bool>,
-    /// tessellated sphere: segments around the equator (default 64).
+    pub radius: f32,
+    /// A triangle mesh instead of the exact sphere (default false).
+    #[serde(default)]
+    pub tessellate: bool,
+    /// Tessellated: segments around the equator (default 64).
     pub segments: Option<u32>,
-    /// tessellated sphere, obj, gltf: interpolate vertex normals (default true).
+    /// Tessellated: interpolate vertex normals (default true).
     pub smooth: Option<bool>,
 }
 
@@ -426,21 +528,17 @@ mod exact {
     }
 
     /// A quad's four corners of three coordinates.
-    pub fn quad<'de, D>(d: D) -> Result<Option<[[f32; 3]; 4]>, D::Error>
+    pub fn quad<'de, D>(d: D) -> Result<[[f32; 3]; 4], D::Error>
     where
         D: Deserializer<'de>,
     {
-        let Some(corners) = Option::<Vec<Vec<f32>>>::deserialize(d)? else {
-            return Ok(None);
-        };
-        let corners = corners
+        let corners = Vec::<Vec<f32>>::deserialize(d)?
             .into_iter()
             .map(sized::<D::Error, f32, 3>)
             .collect::<Result<Vec<_>, _>>()?;
         let n = corners.len();
         corners
             .try_into()
-            .map(Some)
             .map_err(|_| D::Error::invalid_length(n, &"four corners"))
     }
 }

@@ -148,35 +148,7 @@ impl Loader {
     }
 
     fn light(&self, spec: &LightSpec, file: &SceneFile, key: &str) -> Result<Light, SceneError> {
-        let given = [
-            ("position", spec.position.is_some()),
-            ("look_at", spec.look_at.is_some()),
-            ("direction", spec.direction.is_some()),
-            ("intensity", spec.intensity.is_some()),
-            ("power", spec.power.is_some()),
-            ("irradiance", spec.irradiance.is_some()),
-            ("cone_angle", spec.cone_angle.is_some()),
-            ("falloff_start", spec.falloff_start.is_some()),
-        ];
-        let allowed: &[&str] = match spec.kind {
-            LightKind::Point => &["position", "intensity", "power"],
-            LightKind::Spot => &[
-                "position",
-                "look_at",
-                "intensity",
-                "power",
-                "cone_angle",
-                "falloff_start",
-            ],
-            LightKind::Directional => &["direction", "irradiance"],
-        };
-        self.only_keys(
-            key,
-            &format!("a light of type {:?}", spec.kind),
-            &given,
-            allowed,
-        )?;
-        let scale = spec.scale.unwrap_or(1.0);
+        let scale = spec.common.scale.unwrap_or(1.0);
         if !(scale >= 0.0) {
             return Err(self.error(format!("`{key}.scale` must not be negative")));
         }
@@ -185,13 +157,8 @@ impl Loader {
             let s = self.spectrum(s, Role::Emission, file, &key)?.scaled(scale);
             self.checked_emission(s, &key)
         };
-        let point = |name: &str, v: Option<[f32; 3]>| -> Result<Vec3, SceneError> {
-            let p = Vec3::from(v.ok_or_else(|| {
-                self.error(format!(
-                    "`{key}`: a light of type {:?} needs `{name}`",
-                    spec.kind
-                ))
-            })?);
+        let point = |name: &str, p: [f32; 3]| -> Result<Vec3, SceneError> {
+            let p = Vec3::from(p);
             if p.abs().max_element() > MAX_COORDINATE {
                 return Err(self.error(format!(
                     "`{key}.{name}` lies beyond ±{MAX_COORDINATE:e}, the range of prism's single-precision geometry"
@@ -199,71 +166,57 @@ impl Loader {
             }
             Ok(p)
         };
-        match spec.kind {
-            LightKind::Directional => {
-                let d = point("direction", spec.direction)?;
-                if d.length_squared() == 0.0 {
+        // Radiant intensity from `intensity`, or from `power` spread over
+        // the solid angle the light fills.
+        let intensity = |intensity, power, solid_angle: f32| match (intensity, power) {
+            (Some(i), None) => spectrum(i, "intensity"),
+            (None, Some(p)) => Ok(spectrum(p, "power")?.scaled(1.0 / solid_angle)),
+            _ => Err(self.error(format!("`{key}`: give either `intensity` or `power`"))),
+        };
+        match &spec.kind {
+            LightKind::Directional(d) => {
+                let direction = point("direction", d.direction)?;
+                if direction.length_squared() == 0.0 {
                     return Err(self.error(format!("`{key}.direction` must not be zero")));
                 }
-                let e = match &spec.irradiance {
-                    Some(s) => spectrum(s, "irradiance")?,
-                    None => {
-                        return Err(
-                            self.error(format!("`{key}`: a directional light needs `irradiance`"))
-                        )
-                    }
-                };
-                Ok(Light::Directional(DirectionalLight::new(d.normalize(), e)))
+                let e = spectrum(&d.irradiance, "irradiance")?;
+                Ok(Light::Directional(DirectionalLight::new(
+                    direction.normalize(),
+                    e,
+                )))
             }
-            LightKind::Point | LightKind::Spot => {
-                let position = point("position", spec.position)?;
-                let cone = if spec.kind == LightKind::Spot {
-                    let target = point("look_at", spec.look_at)?;
-                    let axis = target - position;
-                    if axis.length_squared() == 0.0 {
-                        return Err(
-                            self.error(format!("`{key}.look_at` must differ from `position`"))
-                        );
-                    }
-                    let end = spec.cone_angle.unwrap_or(30.0);
-                    if !(end > 0.0 && end <= 180.0) {
-                        return Err(self.error(format!(
-                            "`{key}.cone_angle` must be in (0, 180] degrees, found {end}"
-                        )));
-                    }
-                    let start = spec.falloff_start.unwrap_or((end - 5.0).max(0.0));
-                    if !(start >= 0.0 && start <= end) {
-                        return Err(self.error(format!(
-                            "`{key}.falloff_start` must be in [0, cone_angle], found {start}"
-                        )));
-                    }
-                    Some(Cone {
-                        axis: axis.normalize(),
-                        cos_falloff_start: start.to_radians().cos(),
-                        cos_falloff_end: end.to_radians().cos(),
-                    })
-                } else {
-                    None
+            LightKind::Point(p) => {
+                let position = point("position", p.position)?;
+                let i = intensity(p.intensity.as_ref(), p.power.as_ref(), 4.0 * PI)?;
+                Ok(Light::Point(PointLight::new(position, i, None)))
+            }
+            LightKind::Spot(s) => {
+                let position = point("position", s.position)?;
+                let axis = point("look_at", s.look_at)? - position;
+                if axis.length_squared() == 0.0 {
+                    return Err(self.error(format!("`{key}.look_at` must differ from `position`")));
+                }
+                let end = s.cone_angle.unwrap_or(30.0);
+                if !(end > 0.0 && end <= 180.0) {
+                    return Err(self.error(format!(
+                        "`{key}.cone_angle` must be in (0, 180] degrees, found {end}"
+                    )));
+                }
+                let start = s.falloff_start.unwrap_or((end - 5.0).max(0.0));
+                if !(start >= 0.0 && start <= end) {
+                    return Err(self.error(format!(
+                        "`{key}.falloff_start` must be in [0, cone_angle], found {start}"
+                    )));
+                }
+                let cone = Cone {
+                    axis: axis.normalize(),
+                    cos_falloff_start: start.to_radians().cos(),
+                    cos_falloff_end: end.to_radians().cos(),
                 };
-                let intensity = match (&spec.intensity, &spec.power) {
-                    (Some(i), None) => spectrum(i, "intensity")?,
-                    (None, Some(p)) => {
-                        // Power over the solid angle the light fills.
-                        let solid_angle = match &cone {
-                            Some(c) => {
-                                2.0 * PI * (1.0 - 0.5 * (c.cos_falloff_start + c.cos_falloff_end))
-                            }
-                            None => 4.0 * PI,
-                        };
-                        spectrum(p, "power")?.scaled(1.0 / solid_angle)
-                    }
-                    _ => {
-                        return Err(
-                            self.error(format!("`{key}`: give either `intensity` or `power`"))
-                        )
-                    }
-                };
-                Ok(Light::Point(PointLight::new(position, intensity, cone)))
+                let solid_angle =
+                    2.0 * PI * (1.0 - 0.5 * (cone.cos_falloff_start + cone.cos_falloff_end));
+                let i = intensity(s.intensity.as_ref(), s.power.as_ref(), solid_angle)?;
+                Ok(Light::Point(PointLight::new(position, i, Some(cone))))
             }
         }
     }

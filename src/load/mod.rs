@@ -11,6 +11,7 @@ pub mod import;
 mod lights;
 mod materials;
 mod media;
+mod messages;
 mod shapes;
 mod spectra;
 pub mod spectrum_spec;
@@ -28,6 +29,7 @@ use crate::scene::Scene;
 use crate::spectrum::Spectrum;
 use format::SceneFile;
 use import::{Asset, TextureCache};
+use messages::{in_typed_table, with_suggestion};
 
 /// The largest vertex coordinate a scene may hold (see `Loader::place`).
 const MAX_COORDINATE: f32 = 1e12;
@@ -57,10 +59,15 @@ pub struct Overrides {
 }
 
 impl Overrides {
-    /// Writes the overrides into the parsed file; returns the keys they set
-    /// with the flag that set each, for error messages.
-    fn apply(&self, file: &mut SceneFile) -> Vec<(&'static str, &'static str)> {
-        let mut set = Vec::new();
+    /// Writes the overrides into the parsed file, adding to `set` the keys
+    /// they set with the flag that set each (for error messages). Returns
+    /// the keys of the file's integrator that the one `--integrator`
+    /// chose does not take: they are dropped.
+    fn apply(
+        &self,
+        file: &mut SceneFile,
+        set: &mut Vec<(&'static str, &'static str)>,
+    ) -> Result<Vec<String>, String> {
         if let Some((w, h)) = self.resolution {
             file.film.resolution = [w, h];
             set.push(("film.resolution", "--resolution"));
@@ -86,18 +93,20 @@ impl Overrides {
         if let Some(g) = self.gamut {
             file.film.gamut = g;
         }
-        if let Some(kind) = self.integrator {
-            file.integrator.kind = kind;
+        let mut dropped = Vec::new();
+        if let Some(kind) = self.integrator.filter(|&k| k != file.integrator.kind()) {
+            dropped = file.integrator.switch_to(kind)?;
         }
         if let Some(s) = self.strategy {
-            file.integrator.strategy = Some(s);
             set.push(("integrator.strategy", "--strategy"));
+            let name = toml::Value::try_from(s).map_err(|e| e.to_string())?;
+            file.integrator.set("strategy", name)?;
         }
         if let Some(n) = self.split {
-            file.integrator.split = Some(n);
             set.push(("integrator.split", "--split"));
+            file.integrator.set("split", i64::from(n))?;
         }
-        set
+        Ok(dropped)
     }
 }
 
@@ -216,24 +225,6 @@ impl Loader {
         }
     }
 
-    /// Rejects the keys given (`given`: name, present) that `allowed` does
-    /// not list for this kind of table (`kind`, e.g. "a shape of type Quad").
-    fn only_keys(
-        &self,
-        key: &str,
-        kind: &str,
-        given: &[(&str, bool)],
-        allowed: &[&str],
-    ) -> Result<(), SceneError> {
-        match given
-            .iter()
-            .find(|(name, present)| *present && !allowed.contains(name))
-        {
-            Some((name, _)) => Err(self.error(format!("`{key}.{name}` does not apply to {kind}"))),
-            None => Ok(()),
-        }
-    }
-
     fn warn(&self, message: impl Into<String>) {
         self.warnings.borrow_mut().push(message.into());
     }
@@ -256,18 +247,18 @@ impl Loader {
             )));
         }
         let mut file: SceneFile = toml::from_str(text)
-            .map_err(|e| self.error(with_suggestion(at_unknown_key(text, e.to_string()))))?;
-        let file_kind = file.integrator.kind;
-        *self.overridden.borrow_mut() = overrides.apply(&mut file);
-        if file.integrator.kind != file_kind {
-            // The file's parameters for its own integrator do not apply to
-            // the one the command line chose.
-            for key in file.integrator.drop_keys_of_others() {
-                self.warn(format!(
-                    "`integrator.{key}` does not apply to `{}` (chosen by --integrator): ignored",
-                    file.integrator.kind.name()
-                ));
-            }
+            .map_err(|e| self.error(with_suggestion(in_typed_table(text, e.to_string()))))?;
+        let mut set = Vec::new();
+        let dropped = overrides.apply(&mut file, &mut set);
+        *self.overridden.borrow_mut() = set;
+        let dropped = dropped.map_err(|e| self.error(e))?;
+        // The file's parameters for its own integrator do not apply to the
+        // one the command line chose.
+        for key in dropped {
+            self.warn(format!(
+                "`integrator.{key}` does not apply to `{}` (chosen by --integrator): ignored",
+                file.integrator.kind().name()
+            ));
         }
 
         let film = self.film(&file)?;
@@ -343,118 +334,6 @@ fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
     }
 }
 
-/// Points the caret of "unknown field `x`" at the key. Tables read through
-/// a tag (`type = "diffuse"`) lose their keys' places, and the toml crate
-/// then points at the table's header: find the key below the header, in
-/// the same table, and show that line instead.
-fn at_unknown_key(text: &str, message: String) -> String {
-    let Some(key) = message
-        .split_once("unknown field `")
-        .and_then(|(_, rest)| rest.split_once('`'))
-        .map(|(key, _)| key.to_string())
-    else {
-        return message;
-    };
-    let Some(line) = message
-        .strip_prefix("TOML parse error at line ")
-        .and_then(|rest| rest.split_once(','))
-        .and_then(|(n, _)| n.trim().parse::<usize>().ok())
-    else {
-        return message;
-    };
-    let lines: Vec<&str> = text.lines().collect();
-    let Some(header) = lines.get(line.wrapping_sub(1)) else {
-        return message;
-    };
-    if !header.trim_start().starts_with('[') {
-        return message;
-    }
-    let found = lines
-        .iter()
-        .enumerate()
-        .skip(line)
-        .take_while(|(_, l)| !l.trim_start().starts_with('['))
-        .find(|(_, l)| {
-            l.split_once('=')
-                .is_some_and(|(k, _)| k.trim().trim_matches('"') == key)
-        });
-    let Some((i, l)) = found else {
-        return message;
-    };
-    let Some(rest) = message.split_once("unknown field").map(|(_, r)| r) else {
-        return message;
-    };
-    let column = l.len() - l.trim_start().len();
-    let number = (i + 1).to_string();
-    let pad = " ".repeat(number.len());
-    format!(
-        "TOML parse error at line {}, column {}\n{pad} |\n{number} | {l}\n{pad} | {}{}\nunknown field{rest}",
-        i + 1,
-        column + 1,
-        " ".repeat(column),
-        "^".repeat(key.len()),
-    )
-}
-
-/// Adds "did you mean `spp`?" to serde's "unknown field `samples`, expected
-/// one of ..." (and "unknown variant") when one of the expected names is close.
-fn with_suggestion(message: String) -> String {
-    let Some(start) = message
-        .find("unknown field `")
-        .or_else(|| message.find("unknown variant `"))
-    else {
-        return message;
-    };
-    let rest = &message[start..];
-    let Some(open) = rest.find('`') else {
-        return message;
-    };
-    let Some(close) = rest[open + 1..].find('`') else {
-        return message;
-    };
-    let unknown = &rest[open + 1..open + 1 + close];
-    let Some(expected) = rest.find("expected") else {
-        return message;
-    };
-    let candidates: Vec<&str> = rest[expected..]
-        .split('`')
-        .skip(1)
-        .step_by(2)
-        .take_while(|c| !c.contains('\n'))
-        .collect();
-    let best = candidates
-        .iter()
-        .map(|c| {
-            (
-                edit_distance(&unknown.to_lowercase(), &c.to_lowercase()),
-                *c,
-            )
-        })
-        .min();
-    match best {
-        Some((d, c)) if d > 0 && d <= 2.max(unknown.len() / 3) => {
-            format!("{message}\ndid you mean `{c}`?")
-        }
-        _ => message,
-    }
-}
-
-/// Levenshtein distance.
-pub(super) fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut prev = row[0];
-        row[0] = i + 1;
-        for j in 0..b.len() {
-            let cur = row[j + 1];
-            row[j + 1] = (prev + (ca != b[j]) as usize).min(row[j] + 1).min(cur + 1);
-            prev = cur;
-        }
-    }
-    row[b.len()]
-}
-
 /// The dotted key of the first NaN or infinite number in a TOML value.
 fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
     match v {
@@ -472,23 +351,5 @@ fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
             .enumerate()
             .find_map(|(i, v)| first_non_finite(v, &format!("{key}[{i}]"))),
         _ => None,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn suggestions_for_near_misses_only() {
-        let m = "TOML parse error at line 5, column 1\n  |\n5 | spq = 4\n  | ^^^\nunknown field `spq`, expected one of `resolution`, `spp`, `max_depth`\n".to_string();
-        assert!(with_suggestion(m).ends_with("did you mean `spp`?"));
-        let m = "unknown field `zzzzzz`, expected one of `resolution`, `spp`".to_string();
-        assert!(!with_suggestion(m).contains("did you mean"));
-        let m =
-            "unknown variant `dielectirc`, expected one of `diffuse`, `conductor`, `dielectric`"
-                .to_string();
-        assert!(with_suggestion(m).ends_with("did you mean `dielectric`?"));
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
     }
 }

@@ -10,11 +10,24 @@ use glam::{Mat4, Quat, Vec3};
 use super::spectra::Role;
 use super::{list, AssetMaterialSlots, Loader, MAX_COORDINATE};
 use crate::geometry::sphere::Sphere;
-use crate::load::format::{ScaleSpec, SceneFile, ShapeKind, ShapeSpec, TransformSpec};
+use crate::load::format::{
+    ScaleSpec, SceneFile, ShapeGeometry, ShapeKind, ShapeSpec, SphereShape, TransformSpec,
+};
 use crate::load::import::{self, Asset};
 use crate::load::SceneError;
 use crate::material::Material;
 use crate::scene::{Emission, Mesh, ShapeInstance, SphereInstance};
+
+/// An OBJ or glTF shape's file and what to take from it.
+pub(super) struct AssetFile<'a> {
+    kind: ShapeKind,
+    /// The path, relative to the scene file.
+    rel: &'a Path,
+    /// Only the pieces of this name.
+    mesh: &'a Option<String>,
+    /// Interpolate vertex normals (OBJ).
+    smooth: bool,
+}
 
 /// Finest built-in sphere tessellation accepted.
 const MAX_SPHERE_SEGMENTS: u32 = 4096;
@@ -33,7 +46,8 @@ impl Loader {
         let mut slots = AssetMaterialSlots::new();
         for (i, shape) in file.shapes.iter().enumerate() {
             let key = format!("shape[{i}]");
-            let material = match &shape.material {
+            let common = &shape.common;
+            let material = match &common.material {
                 None => None,
                 Some(name) => Some(*material_index.get(name).ok_or_else(|| {
                     self.error(format!(
@@ -42,9 +56,9 @@ impl Loader {
                     ))
                 })?),
             };
-            let emission = match &shape.emission {
+            let emission = match &common.emission {
                 None => {
-                    if shape.emission_scale.is_some() || shape.two_sided.is_some() {
+                    if common.emission_scale.is_some() || common.two_sided.is_some() {
                         return Err(self.error(format!(
                             "`{key}`: `emission_scale` and `two_sided` need `emission`"
                         )));
@@ -52,7 +66,7 @@ impl Loader {
                     None
                 }
                 Some(spec) => {
-                    let scale = shape.emission_scale.unwrap_or(1.0);
+                    let scale = common.emission_scale.unwrap_or(1.0);
                     if scale < 0.0 {
                         return Err(
                             self.error(format!("`{key}.emission_scale` must not be negative"))
@@ -64,15 +78,27 @@ impl Loader {
                     Some(Emission {
                         spectrum: self.checked_emission(spectrum, &format!("{key}.emission"))?,
                         texture: None,
-                        two_sided: shape.two_sided.unwrap_or(false),
+                        two_sided: common.two_sided.unwrap_or(false),
                     })
                 }
             };
-            match shape.kind {
-                ShapeKind::Obj | ShapeKind::Gltf => {
-                    let overrides = self.overrides(shape, &key, material_index, file)?;
+            let file_shape = match &shape.geometry {
+                ShapeGeometry::Obj(f) => Some((&f.file, &f.mesh, &f.materials, f.smooth)),
+                ShapeGeometry::Gltf(f) => Some((&f.file, &f.mesh, &f.materials, None)),
+                _ => None,
+            };
+            match &shape.geometry {
+                ShapeGeometry::Obj(_) | ShapeGeometry::Gltf(_) => {
+                    let (rel, mesh, names, smooth) = file_shape.expect("a file shape");
+                    let overrides = self.overrides(names, &key, material_index, file)?;
+                    let asset_file = AssetFile {
+                        kind: shape.geometry.kind(),
+                        rel,
+                        mesh,
+                        smooth: smooth.unwrap_or(true),
+                    };
                     for (mut mesh, m, e) in
-                        self.asset_pieces(shape, &key, &overrides, materials, &mut slots)?
+                        self.asset_pieces(&asset_file, &key, &overrides, materials, &mut slots)?
                     {
                         self.place(&mut mesh, shape, &key)?;
                         self.hold_mesh(&key, &mesh)?;
@@ -83,16 +109,16 @@ impl Loader {
                         });
                     }
                 }
-                ShapeKind::Sphere if shape.tessellate != Some(true) => {
+                ShapeGeometry::Sphere(sphere) if !sphere.tessellate => {
                     spheres.push(SphereInstance {
-                        sphere: self.exact_sphere(shape, &key)?,
+                        sphere: self.exact_sphere(sphere, shape, &key)?,
                         material: material.unwrap_or(default_material),
                         emission,
-                        inward: shape.flip_normals,
+                        inward: common.flip_normals,
                     });
                 }
-                ShapeKind::Quad | ShapeKind::Sphere => {
-                    let mut mesh = self.built_in_mesh(shape, &key)?;
+                ShapeGeometry::Quad(_) | ShapeGeometry::Sphere(_) => {
+                    let mut mesh = self.built_in_mesh(&shape.geometry, &key)?;
                     self.place(&mut mesh, shape, &key)?;
                     self.hold_mesh(&key, &mesh)?;
                     shapes.push(ShapeInstance {
@@ -109,18 +135,30 @@ impl Loader {
     /// An exact sphere: its centre and radius placed by the shape's
     /// transform, which must keep it a sphere (rotation, uniform scale,
     /// translation).
-    fn exact_sphere(&self, shape: &ShapeSpec, key: &str) -> Result<Sphere, SceneError> {
-        let kind = "an exact sphere (`tessellate = true` makes a triangle mesh, which takes `segments` and `smooth`)";
-        let given = self.given_keys(shape);
-        self.only_keys(key, kind, &given, &["center", "radius", "tessellate"])?;
-        let Some(r) = shape.radius else {
-            return Err(self.error(format!("`{key}`: a sphere needs `radius`")));
-        };
+    fn exact_sphere(
+        &self,
+        spec: &SphereShape,
+        shape: &ShapeSpec,
+        key: &str,
+    ) -> Result<Sphere, SceneError> {
+        // The mesh's keys, given without asking for the mesh.
+        for (name, given) in [
+            ("segments", spec.segments.is_some()),
+            ("smooth", spec.smooth.is_some()),
+        ] {
+            if given {
+                return Err(self.error(format!(
+                    "`{key}.{name}` applies to a tessellated sphere: give `tessellate = true` \
+                     for a triangle mesh"
+                )));
+            }
+        }
+        let r = spec.radius;
         if !(r > 0.0 && r.is_finite()) {
             return Err(self.error(format!("`{key}.radius` must be positive")));
         }
-        let mut sphere = Sphere::new(Vec3::from(shape.center.unwrap_or([0.0; 3])), r);
-        if let Some(t) = &shape.transform {
+        let mut sphere = Sphere::new(Vec3::from(spec.center.unwrap_or([0.0; 3])), r);
+        if let Some(t) = &shape.common.transform {
             let m = self.transform(t, key)?;
             let linear = glam::Mat3::from_mat4(m);
             let scale = linear.x_axis.length();
@@ -163,13 +201,13 @@ impl Loader {
     /// A shape's `materials` table: asset material name → scene material.
     pub(super) fn overrides(
         &self,
-        shape: &ShapeSpec,
+        names: &Option<BTreeMap<String, String>>,
         key: &str,
         material_index: &BTreeMap<String, u32>,
         file: &SceneFile,
     ) -> Result<HashMap<String, u32>, SceneError> {
         let mut out = HashMap::new();
-        for (asset_name, scene_name) in shape.materials.iter().flatten() {
+        for (asset_name, scene_name) in names.iter().flatten() {
             let index = material_index.get(scene_name).ok_or_else(|| {
                 self.error(format!(
                     "`{key}.materials.{asset_name}`: no material named `{scene_name}` (defined: {})",
@@ -223,26 +261,18 @@ impl Loader {
     #[allow(clippy::type_complexity)]
     pub(super) fn asset_pieces(
         &self,
-        shape: &ShapeSpec,
+        shape: &AssetFile,
         key: &str,
         overrides: &HashMap<String, u32>,
         materials: &mut Vec<Material>,
         slots: &mut AssetMaterialSlots,
     ) -> Result<Vec<(Mesh, Option<u32>, Option<Emission>)>, SceneError> {
-        let allowed = ["file", "smooth", "mesh", "materials"];
-        self.only(shape, key, &allowed)?;
         let kind = if shape.kind == ShapeKind::Obj {
             "an OBJ"
         } else {
             "a glTF"
         };
-        let rel = shape.file.as_ref().ok_or_else(|| {
-            self.error(format!(
-                "`{key}`: a shape of type {:?} needs `file`",
-                shape.kind
-            ))
-        })?;
-        let path = self.base.join(rel);
+        let path = self.base.join(shape.rel);
         if path.is_dir() {
             return Err(self.error(format!(
                 "`{key}.file`: {} is a directory, not {kind} file",
@@ -252,8 +282,7 @@ impl Loader {
         if !path.exists() {
             return Err(self.error(format!("`{key}.file`: {} does not exist", path.display())));
         }
-        let smooth = shape.smooth.unwrap_or(true);
-        let asset = self.asset(&path, shape.kind, smooth, &format!("{key}.file"))?;
+        let asset = self.asset(&path, shape.kind, shape.smooth, &format!("{key}.file"))?;
         for name in overrides.keys() {
             if !asset.materials.iter().any(|m| &m.name == name) {
                 let names: Vec<&String> = asset.materials.iter().map(|m| &m.name).collect();
@@ -309,15 +338,17 @@ impl Loader {
         shape: &ShapeSpec,
         key: &str,
     ) -> Result<(), SceneError> {
-        if let Some(t) = &shape.transform {
+        if let Some(t) = &shape.common.transform {
             mesh.transform(&self.transform(t, key)?);
         }
-        if shape.flip_normals {
+        if shape.common.flip_normals {
             mesh.flip();
         }
-        let from = shape.file.as_ref().map_or(String::new(), |f| {
-            format!(" ({})", self.base.join(f).display())
-        });
+        let from = match &shape.geometry {
+            ShapeGeometry::Obj(f) => format!(" ({})", self.base.join(&f.file).display()),
+            ShapeGeometry::Gltf(f) => format!(" ({})", self.base.join(&f.file).display()),
+            _ => String::new(),
+        };
         if mesh.positions.iter().any(|p| !p.is_finite()) {
             return Err(self.error(format!(
                 "`{key}`{from}: vertex positions are not finite (after the transform)"
@@ -338,68 +369,25 @@ impl Loader {
         Ok(())
     }
 
-    /// Rejects keys that do not apply to the shape's type.
-    pub(super) fn only(
-        &self,
-        shape: &ShapeSpec,
-        key: &str,
-        allowed: &[&str],
-    ) -> Result<(), SceneError> {
-        let kind = format!("a shape of type {:?}", shape.kind);
-        self.only_keys(key, &kind, &self.given_keys(shape), allowed)
-    }
-
-    /// Which of the keys that apply to some shape types only were given.
-    fn given_keys(&self, shape: &ShapeSpec) -> [(&'static str, bool); 9] {
-        [
-            ("file", shape.file.is_some()),
-            ("mesh", shape.mesh.is_some()),
-            ("materials", shape.materials.is_some()),
-            ("vertices", shape.vertices.is_some()),
-            ("center", shape.center.is_some()),
-            ("radius", shape.radius.is_some()),
-            ("segments", shape.segments.is_some()),
-            ("smooth", shape.smooth.is_some()),
-            ("tessellate", shape.tessellate.is_some()),
-        ]
-    }
-
-    /// The mesh of a built-in shape: a quad or a sphere.
-    fn built_in_mesh(&self, shape: &ShapeSpec, key: &str) -> Result<Mesh, SceneError> {
-        let missing = |name: &str| {
-            self.error(format!(
-                "`{key}`: a shape of type {:?} needs `{name}`",
-                shape.kind
-            ))
-        };
-        match shape.kind {
-            ShapeKind::Quad => {
-                self.only(shape, key, &["vertices"])?;
-                let v = shape.vertices.ok_or_else(|| missing("vertices"))?;
-                Ok(Mesh::quad(v.map(Vec3::from)))
-            }
-            ShapeKind::Sphere => {
-                self.only(
-                    shape,
-                    key,
-                    &["center", "radius", "segments", "smooth", "tessellate"],
-                )?;
-                let r = shape.radius.ok_or_else(|| missing("radius"))?;
-                self.sphere_mesh(shape, key, r)
-            }
-            ShapeKind::Obj | ShapeKind::Gltf => Err(self.error(format!(
-                "`{key}`: a shape of type {:?} is read from its file",
-                shape.kind
+    /// The mesh of a built-in shape: a quad or a tessellated sphere.
+    fn built_in_mesh(&self, geometry: &ShapeGeometry, key: &str) -> Result<Mesh, SceneError> {
+        match geometry {
+            ShapeGeometry::Quad(q) => Ok(Mesh::quad(q.vertices.map(Vec3::from))),
+            ShapeGeometry::Sphere(sphere) => self.sphere_mesh(sphere, key),
+            ShapeGeometry::Obj(_) | ShapeGeometry::Gltf(_) => Err(self.error(format!(
+                "`{key}`: a shape of type `{}` is read from its file",
+                geometry.kind().name()
             ))),
         }
     }
 
-    /// A sphere of radius `r` as a triangle mesh.
-    fn sphere_mesh(&self, shape: &ShapeSpec, key: &str, r: f32) -> Result<Mesh, SceneError> {
+    /// A sphere as a triangle mesh.
+    fn sphere_mesh(&self, spec: &SphereShape, key: &str) -> Result<Mesh, SceneError> {
+        let r = spec.radius;
         if !(r > 0.0) {
             return Err(self.error(format!("`{key}.radius` must be positive")));
         }
-        let segments = shape.segments.unwrap_or(64);
+        let segments = spec.segments.unwrap_or(64);
         if !(3..=MAX_SPHERE_SEGMENTS).contains(&segments) {
             return Err(self.error(format!(
                 "`{key}.segments` must be between 3 and {MAX_SPHERE_SEGMENTS}, found {segments}"
@@ -411,10 +399,10 @@ impl Loader {
         )
         .map_err(|e| self.error(e))?;
         Ok(Mesh::sphere(
-            Vec3::from(shape.center.unwrap_or([0.0; 3])),
+            Vec3::from(spec.center.unwrap_or([0.0; 3])),
             r,
             segments,
-            shape.smooth.unwrap_or(true),
+            spec.smooth.unwrap_or(true),
         ))
     }
 

@@ -150,7 +150,7 @@ impl Loader {
             .clone()
             .map(|k| {
                 (
-                    super::edit_distance(&name.to_lowercase(), &k.to_lowercase()),
+                    super::messages::edit_distance(&name.to_lowercase(), &k.to_lowercase()),
                     k,
                 )
             })

@@ -32,8 +32,8 @@ use std::cell::RefCell;
 use super::ior_stack::IorStack;
 use super::light_path;
 use super::walk::PathContext;
-use super::IntegratorSpec;
 use super::{camera_ray, PathCounters, PixelSample};
+use super::{CommonParams, Configure, NoParams};
 use crate::drive::splats::SplatEstimator;
 use crate::film::FilmTile;
 use crate::geometry::Ray;
@@ -68,12 +68,14 @@ impl Default for Bdpt {
     }
 }
 
-impl Bdpt {
-    pub fn from_spec(spec: &IntegratorSpec) -> Result<Self, String> {
+impl Configure for Bdpt {
+    type Params = NoParams;
+
+    fn configure(common: &CommonParams, _: NoParams) -> Result<Self, String> {
         let d = Bdpt::default();
         Ok(Bdpt {
-            max_depth: spec.max_depth.unwrap_or(d.max_depth),
-            rr_depth: spec.rr_depth.unwrap_or(d.rr_depth),
+            max_depth: common.max_depth.unwrap_or(d.max_depth),
+            rr_depth: common.rr_depth.unwrap_or(d.rr_depth),
         })
     }
 }
