@@ -9,7 +9,7 @@
 # build again with the merged counts (-C profile-use), so that LLVM lays out
 # hot paths straight, inlines where calls are frequent and keeps cold code
 # (errors, rare materials) out of the way. Images are bit-identical to the
-# plain release build (the arithmetic is the same; README, Performance). It
+# plain release build (the arithmetic is the same; docs/performance-history.md). It
 # takes two release builds (about 10 minutes on 2 cores) and needs
 # llvm-profdata of the compiler's own LLVM version, which rustup's
 # `llvm-tools` component has (added here if it is missing).

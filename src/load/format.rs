@@ -1,5 +1,6 @@
 //! The TOML scene format, version 1: serde structures with their defaults.
-//! Every table rejects unknown keys; README.md documents each key.
+//! Every table rejects unknown keys; docs/scene-format.md documents each
+//! key (tests/docs.rs checks it against these structures).
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
