@@ -25,12 +25,27 @@ struct Cli {
     max_memory: Option<u64>,
 }
 
+/// `prism render --help` ends with these (docs/command-line.md has them all).
+const RENDER_EXAMPLES: &str = "Examples:
+  prism render scenes/cornell-box.toml                        64 spp at 512x512, next to the scene
+  prism render scenes/cornell-box.toml --spp 16 -o out/cbox   a quick look, into out/
+  prism render scenes/cornell-box.toml --time 30s --adaptive  stop after 30 s (at most 64 spp); samples where needed
+  prism render scenes/prism-rainbow.toml --integrator sppm    a prism's rainbow on a wall, by photon mapping
+  prism render scenes/cornell-box.toml --samples 0..64 -o out/part-a
+                                                              one part of a render, for `prism merge`
+  prism render scenes/sunset.toml --display 127.0.0.1:14158   watch it in tev while it renders
+
+Scene files: docs/scene-format.md. Exit status: 0 done, 1 bad input or a failed
+write (the message names the file, line and key), 2 a bad command line, 130
+interrupted (the image so far is written).";
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a TOML scene to OpenEXR (linear sRGB), PNG (sRGB, tone mapped)
     /// and spectral OpenEXR (Fichet 2021 layout, NAME.spectral.exr).
     ///
     /// Example: prism render scenes/cornell-box.toml --spp 256
+    #[command(after_long_help = RENDER_EXAMPLES)]
     Render {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -112,8 +127,9 @@ enum Command {
         #[arg(long, value_name = "HOST:PORT")]
         display: Option<String>,
         /// Spend the samples (--spp on average per pixel) where a pilot
-        /// render finds the relative error high; unbiased (the pilot's
-        /// samples are not in the image). Path tracer only.
+        /// (the first sixteenth, part of the image) finds the relative error
+        /// high; unbiased, as a pixel's count depends on its neighbours'
+        /// pilot samples, never its own. Path tracer only.
         #[arg(long)]
         adaptive: bool,
         /// Hide the progress bar.

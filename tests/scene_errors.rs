@@ -533,3 +533,26 @@ fn emission_beyond_f32_arithmetic_is_refused() {
     let text = format!("{CAMERA}[[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1e12\n");
     assert!(load_str(&text, Path::new(".")).is_ok());
 }
+
+#[test]
+fn a_newcomers_mistakes_show_the_form_expected_and_where_a_file_was_looked_for() {
+    let e = error(&format!("{CAMERA}[film]\nresolution = \"512x512\"\n"));
+    assert!(
+        e.contains("line 5") && e.contains("an array of 2 numbers, written [a, b]"),
+        "{e}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        format!("{CAMERA}[materials.m]\ntype = \"diffuse\"\ntexture = \"textures/wood.png\"\n");
+    let e = match load_str(&text, dir.path()) {
+        Ok(_) => panic!("a missing texture loaded"),
+        Err(e) => e.to_string(),
+    };
+    let looked = dir.path().join("textures/wood.png");
+    assert!(
+        e.contains("`materials.m.texture`: textures/wood.png does not exist")
+            && e.contains(&format!("looked for {}", looked.display()))
+            && e.contains("relative paths start at the scene file's folder"),
+        "{e}"
+    );
+}

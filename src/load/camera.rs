@@ -162,7 +162,7 @@ impl Loader {
                 "`camera.from_file` takes the whole camera from the file: drop position, look_at, fov, focal_length, type, width and the lens keys",
             ));
         }
-        let path = self.base.join(rel);
+        let path = self.input_file(rel, "camera.from_file")?;
         if !path.is_file() {
             return Err(self.error(format!(
                 "`camera.from_file`: {} does not exist or is not a file",

@@ -54,7 +54,7 @@ impl Loader {
                 Ok(vec![Light::Environment(UniformEnvironment::new(radiance))])
             }
             (None, Some(rel), None) => {
-                let path = self.base.join(rel);
+                let path = self.input_file(rel.as_ref(), "environment.file")?;
                 let (w, h, rgb) = read_radiance_image(&path)
                     .map_err(|e| self.error(format!("`environment.file`: {e}")))?;
                 let rotate = env.rotate.unwrap_or(0.0);

@@ -40,7 +40,7 @@ impl Loader {
                     texture: match texture {
                         None => None,
                         Some(rel) => {
-                            let path = self.base.join(rel);
+                            let path = self.input_file(rel, &format!("{key}.texture"))?;
                             let t = self
                                 .textures
                                 .borrow_mut()

@@ -225,6 +225,31 @@ impl Loader {
         }
     }
 
+    /// A file the scene names (`key`), relative to the scene file's folder.
+    /// One that is not there is an error that shows where it was looked
+    /// for, so that a path written relative to the wrong folder is plain.
+    fn input_file(&self, rel: &Path, key: &str) -> Result<PathBuf, SceneError> {
+        let path = self.base.join(rel);
+        if path.exists() {
+            return Ok(path);
+        }
+        let folder = match self.base.as_os_str().is_empty() {
+            true => Path::new("."),
+            false => self.base.as_path(),
+        };
+        Err(self.error(if rel.is_absolute() {
+            format!("`{key}`: {} does not exist", rel.display())
+        } else {
+            format!(
+                "`{key}`: {} does not exist (looked for {}: relative paths start at the scene \
+                 file's folder, {})",
+                rel.display(),
+                path.display(),
+                folder.display()
+            )
+        }))
+    }
+
     fn warn(&self, message: impl Into<String>) {
         self.warnings.borrow_mut().push(message.into());
     }

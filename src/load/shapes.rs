@@ -272,15 +272,12 @@ impl Loader {
         } else {
             "a glTF"
         };
-        let path = self.base.join(shape.rel);
+        let path = self.input_file(shape.rel, &format!("{key}.file"))?;
         if path.is_dir() {
             return Err(self.error(format!(
                 "`{key}.file`: {} is a directory, not {kind} file",
                 path.display()
             )));
-        }
-        if !path.exists() {
-            return Err(self.error(format!("`{key}.file`: {} does not exist", path.display())));
         }
         let asset = self.asset(&path, shape.kind, shape.smooth, &format!("{key}.file"))?;
         for name in overrides.keys() {

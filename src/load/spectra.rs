@@ -46,7 +46,7 @@ impl Loader {
                 self.table(l, v, key)?
             }
             SpectrumSpec::File { path, scale } => {
-                let full = self.base.join(path);
+                let full = self.input_file(path.as_ref(), key)?;
                 let text = crate::input::read_to_string(&full).map_err(|e| {
                     self.error(format!("`{key}`: spectrum file {}: {e}", full.display()))
                 })?;
