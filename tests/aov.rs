@@ -2,7 +2,7 @@
 //! of NAME.exr, from a first-hit ray of their own, so the image itself is
 //! the same with or without them.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::Path;

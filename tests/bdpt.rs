@@ -5,7 +5,7 @@
 //! the path tracer cannot find at all); and the same image for any number
 //! of threads.
 
-mod common;
+use crate::common;
 
 use common::agree::{
     assert_integrators_agree, block_estimates, cornell_box, DELTA_LIGHTS, GLASS_METAL_SHADING,

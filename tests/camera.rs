@@ -4,7 +4,7 @@
 //! camera and from the lights, an orthographic view that keeps sizes at
 //! every distance, and clear errors.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

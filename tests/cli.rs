@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 fn prism() -> Command {
     Command::new(env!("CARGO_BIN_EXE_prism"))

@@ -4,7 +4,7 @@
 //! irradiance E, ρ/π · E cos θ. A spot light is the point light inside its
 //! inner cone, nothing outside its outer cone, and smoothstep in between.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

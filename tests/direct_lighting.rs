@@ -3,7 +3,7 @@
 //! formula E = (L/2) Σ θᵢ n·(vᵢ × vᵢ₊₁)/|vᵢ × vᵢ₊₁|, so the floor's radiance
 //! is ρ/π · E at every point.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use prism::geometry::Ray;

@@ -2,7 +2,7 @@
 //! angle Snell's law and the Sellmeier equation give, and a rendered
 //! spectrum through the prism runs from red (least deviated) to violet.
 
-mod common;
+use crate::common;
 
 use glam::{Vec3, Vec4};
 use prism::geometry::offset::offset_ray_origin;

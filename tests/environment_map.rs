@@ -4,7 +4,7 @@
 //! rotates the picture; bidirectional path tracing sees the map as the
 //! path tracer does; bad maps are clear errors.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! all emit Le, radiance is Le/(1 − ρ) everywhere (the Neumann series of the
 //! rendering equation). Any lost or invented energy shows up here.
 
-mod common;
+use crate::common;
 
 use common::{furnace_scene, render_film, scene};
 

@@ -5,9 +5,9 @@
 //! shrinks any failure to a minimal input). Bounded: a few hundred cases
 //! each, seconds in CI, where tools/test.sh fixes the seed so that a run is
 //! reproducible. For longer runs with fresh seeds:
-//! PROPTEST_CASES=100000 cargo test --profile suite --test fuzz.
+//! PROPTEST_CASES=100000 cargo test --release --test suite -- fuzz::.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 

@@ -2,7 +2,7 @@
 //! asserts the failure it targets: light leaks, self-intersection acne,
 //! scale dependence, NaN and infinity, stack overflow.
 
-mod common;
+use crate::common;
 
 use common::{assert_blocks_agree, scene};
 use glam::Vec3;

@@ -2,7 +2,7 @@
 //! attributes, materials, textures, cameras, instancing and overrides, and
 //! bad input. Every asset is written here by the test helpers.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

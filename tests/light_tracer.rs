@@ -9,7 +9,7 @@
 //! the factors cancel (generalised reciprocity). tests/bsdf.rs checks the
 //! adjoint BSDF directly, and tests/bdpt.rs a light inside glass.
 
-mod common;
+use crate::common;
 
 use common::agree::{assert_integrators_agree, cornell_box, DELTA_LIGHTS, GLASS_METAL_SHADING};
 

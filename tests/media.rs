@@ -3,7 +3,7 @@
 //! scattering from a point light, spectral MIS against a hero-only
 //! estimate in a chromatic medium, and the integrators against each other.
 
-mod common;
+use crate::common;
 
 use common::agree::assert_integrators_agree;
 use common::{path_radiance, render_film, scene};

@@ -3,7 +3,7 @@
 //! same samples in every pixel, and equal to a render of that many samples;
 //! the error estimate tells the truth; logs get progress lines.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 use std::sync::atomic::AtomicBool;

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 
 use prism::film::Film;
 use prism::integrator::{Integrator, IntegratorKind, IntegratorSpec};

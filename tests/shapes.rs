@@ -4,7 +4,7 @@
 //! and stands where its example puts it, a ray down the axis hitting its
 //! front at the expected distance with its normal facing the ray.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use prism::geometry::Ray;

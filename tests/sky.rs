@@ -6,7 +6,7 @@
 //! under sun and sky against its quadrature, and every integrator against
 //! that.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 use std::sync::Arc;

@@ -1,7 +1,7 @@
 //! The spectral OpenEXR round trip: what the film holds is what a reader
 //! gets back, channels ordered by wavelength (never by name).
 
-mod common;
+use crate::common;
 
 use exr::prelude::*;
 use prism::film::spectral_exr::{self, channel_name};

@@ -2,7 +2,7 @@
 //! spheres they replace: the irradiance a spherical lamp casts, and the
 //! area of a sphere's silhouette.
 
-mod common;
+use crate::common;
 
 use prism::render::{render, RenderOptions};
 

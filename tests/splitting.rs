@@ -4,7 +4,7 @@
 //! some branches keep only their hero wavelength — and has less noise per
 //! sample.
 
-mod common;
+use crate::common;
 
 use common::agree::{assert_scenes_agree, cornell_box, GLASS_METAL_SHADING};
 use common::{region_mean, render_film};

@@ -5,7 +5,7 @@
 //! found through a specular chain, which no other integrator renders);
 //! against the path tracer; and the same image for any number of threads.
 
-mod common;
+use crate::common;
 
 use common::caustic;
 use common::region_mean;

@@ -2,7 +2,7 @@
 //! estimators of the same integral: on the Cornell Box they must agree
 //! within their error bars, region by region.
 
-mod common;
+use crate::common;
 
 use common::{assert_blocks_agree, region_mean, render_film, repo_scene, z_score};
 

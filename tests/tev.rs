@@ -2,7 +2,7 @@
 //! fake tev that parses the protocol (CreateImage, then UpdateImageV3
 //! blocks) and assembles the picture, which must be the render's EXR.
 
-mod common;
+use crate::common;
 
 use std::io::Read;
 use std::net::TcpListener;
