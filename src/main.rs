@@ -115,9 +115,10 @@ enum Command {
         /// falls below this (e.g. 0.01), at most --spp samples.
         #[arg(long, value_name = "RELMSE")]
         target_error: Option<f64>,
-        /// Seconds between progress lines when stderr is not a terminal.
-        #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
-        log_every: f64,
+        /// Time between progress lines when stderr is not a terminal (30s,
+        /// 1m; plain numbers are seconds; at least 0.1 s).
+        #[arg(long, value_name = "DURATION", value_parser = parse_duration, default_value = "5")]
+        log_every: std::time::Duration,
         /// Rewrite NAME.png (atomically) this often while rendering, after
         /// the pass under way (10s, 1m; plain numbers are seconds).
         #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
@@ -130,7 +131,7 @@ enum Command {
         /// (the first sixteenth, part of the image) finds the relative error
         /// high; unbiased, as a pixel's count depends on its neighbours'
         /// pilot samples, never its own. Path tracer only.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "samples")]
         adaptive: bool,
         /// Hide the progress bar.
         #[arg(short, long)]
@@ -310,7 +311,11 @@ fn interrupts_on_ctrl_c() -> Result<std::sync::Arc<Interrupts>> {
     Ok(interrupts)
 }
 
-/// "90s", "5m", "1.5h" or plain seconds.
+/// The longest duration accepted: a year. Deadlines are instants plus a
+/// duration, and the clock's instants overflow far below `Duration::MAX`.
+const MAX_DURATION_SECONDS: f64 = 366.0 * 86_400.0;
+
+/// "90s", "5m", "1.5h" or plain seconds, up to a year.
 fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
     let s = s.trim();
     let (number, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
@@ -329,6 +334,11 @@ fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
         .map_err(|_| format!("{s:?} is not a duration such as 90s, 5m or 1.5h"))?;
     if !(v > 0.0 && v.is_finite()) {
         return Err("the duration must be positive".into());
+    }
+    if v * seconds > MAX_DURATION_SECONDS {
+        return Err(format!(
+            "{s:?} is longer than a year, the longest duration prism takes"
+        ));
     }
     Ok(std::time::Duration::from_secs_f64(v * seconds))
 }
@@ -403,7 +413,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 interrupts,
                 time_budget: time,
                 target_error,
-                log_every: std::time::Duration::from_secs_f64(log_every.max(0.1)),
+                log_every: log_every.max(std::time::Duration::from_millis(100)),
                 preview_every,
                 display,
                 adaptive,

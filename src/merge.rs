@@ -16,6 +16,8 @@ pub const ATTR_SCENE_HASH: &str = "prismSceneHash";
 pub const ATTR_SEED: &str = "prismSeed";
 pub const ATTR_SAMPLES: &str = "prismSampleRange";
 pub const ATTR_REGION: &str = "prismRegion";
+/// Marks an adaptive render: its pixels took different sample indices.
+pub const ATTR_ADAPTIVE: &str = "prismAdaptive";
 
 /// FNV-1a 64 of some bytes as hex: what identifies the scene a part belongs
 /// to (`Scene::content_hash` gives it the hashes of the scene's files).
@@ -61,6 +63,13 @@ fn describe(path: &Path, image: &SpectralImage) -> Result<(Range<u32>, [u32; 4])
             )
         })
     };
+    if image.attributes.contains_key(ATTR_ADAPTIVE) {
+        bail!(
+            "{}: an adaptive render (--adaptive): its pixels hold different sample indices, \
+             which another part would count again; render parts without --adaptive",
+            path.display()
+        );
+    }
     let samples = parse_sample_range(attr(ATTR_SAMPLES)?)
         .with_context(|| format!("{}: bad `{ATTR_SAMPLES}`", path.display()))?;
     let region = parse_region(attr(ATTR_REGION)?)

@@ -91,7 +91,8 @@ impl Texture {
     /// Builds a texture from RGBA values in [0, 1], row by row from the top
     /// (texture coordinate v = 0 is the top row, as in glTF and images).
     pub fn from_rgba(width: u32, height: u32, rgba: &[f32], encoding: Encoding) -> Texture {
-        assert_eq!(rgba.len(), (width * height * 4) as usize);
+        // In usize: a 32768² texture's 4 channels overflow u32.
+        assert_eq!(rgba.len(), width as usize * height as usize * 4);
         let pixels = rgba.chunks_exact(4).map(Vec4::from_slice);
         let (texels, mean_rgb) = match encoding {
             Encoding::SrgbColour => {
@@ -123,7 +124,7 @@ impl Texture {
             texels,
             wrap: [Wrap::Repeat; 2],
             filter: Filter::Bilinear,
-            mean_rgb: mean_rgb / (width * height) as f32,
+            mean_rgb: mean_rgb / (width as f64 * height as f64) as f32,
         }
     }
 

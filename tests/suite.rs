@@ -21,6 +21,7 @@ mod farm;
 mod furnace;
 mod fuzz;
 mod hard_cases;
+mod hostile_round3;
 mod import;
 mod light_tracer;
 mod lights;

@@ -32,6 +32,18 @@ thread_local! {
     /// Inside `as_one_set`: files written but not yet moved into place.
     static STAGED: std::cell::RefCell<Option<Vec<(PathBuf, PathBuf)>>> =
         const { std::cell::RefCell::new(None) };
+    /// Inside `as_one_set`: files of an earlier set that this one does not
+    /// replace, to go when it is in place.
+    static RETIRED: std::cell::RefCell<Vec<PathBuf>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Inside `as_one_set`: `path`, if it exists, belongs to the set being
+/// replaced but not to the new one (a spectral EXR under `--no-spectral`):
+/// it goes when the new set is in place, and stays if the set fails.
+pub fn retire_in_set(path: &Path) {
+    if path.is_file() {
+        RETIRED.with(|r| r.borrow_mut().push(path.to_path_buf()));
+    }
 }
 
 /// Writes `path` through a temporary sibling and a rename (deferred to the
@@ -64,8 +76,10 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
 /// files that were there before, all of them, and no temporary ones.
 pub fn as_one_set(write: impl FnOnce() -> Result<()>) -> Result<()> {
     STAGED.with(|s| *s.borrow_mut() = Some(Vec::new()));
+    RETIRED.with(|r| r.borrow_mut().clear());
     let result = write();
     let files = STAGED.with(|s| s.borrow_mut().take()).unwrap_or_default();
+    let retired = RETIRED.with(|r| std::mem::take(&mut *r.borrow_mut()));
     let discard = |files: &[(PathBuf, PathBuf)]| {
         for (tmp, _) in files {
             let _ = std::fs::remove_file(tmp);
@@ -80,11 +94,26 @@ pub fn as_one_set(write: impl FnOnce() -> Result<()>) -> Result<()> {
         discard(&files);
         anyhow::bail!("cannot write {}: a folder has that name", taken.display());
     }
+    // The earlier set's files that the new one lacks step aside first, so
+    // that no moment shows them beside the new files.
+    let mut aside = Vec::new();
+    for path in &retired {
+        let tmp = temp_name(path).with_extension("retired");
+        if std::fs::rename(path, &tmp).is_ok() {
+            aside.push((tmp, path));
+        }
+    }
     for (i, (tmp, path)) in files.iter().enumerate() {
         if let Err(e) = std::fs::rename(tmp, path) {
             discard(&files[i..]);
+            for (tmp, path) in &aside {
+                let _ = std::fs::rename(tmp, path);
+            }
             return Err(e).with_context(|| format!("cannot move {} into place", tmp.display()));
         }
+    }
+    for (tmp, _) in &aside {
+        let _ = std::fs::remove_file(tmp);
     }
     Ok(())
 }

@@ -47,6 +47,11 @@ pub enum Strategy {
     Bsdf,
 }
 
+/// The most bounces a path may take (`max_depth`): in a medium that
+/// scatters without absorbing, Russian roulette never ends a path, so the
+/// bound is what ends it; bdpt holds this many vertices per subpath.
+pub const MAX_DEPTH: u32 = 131_072;
+
 /// Most continuations a path tracer's camera sample may split into.
 pub const MAX_SPLIT: u32 = 256;
 
@@ -139,6 +144,17 @@ impl IntegratorSpec {
             .into_iter()
             .partition(|(k, _)| common_keys.contains(&k.as_str()));
         let common = CommonParams::deserialize(toml::Value::Table(common)).map_err(field_error)?;
+        for (key, depth) in [
+            ("max_depth", common.max_depth),
+            ("rr_depth", common.rr_depth),
+        ] {
+            if depth.is_some_and(|d| d > MAX_DEPTH) {
+                return Err(format!(
+                    "`integrator.{key}` must be at most {MAX_DEPTH}: a path that long carries \
+                     nothing f32 can add, and the bound keeps every render finite"
+                ));
+            }
+        }
         let params = IntegratorParams::parse(kind, own)?;
         Ok(Self {
             common,

@@ -87,6 +87,16 @@ impl Sppm {
     }
 }
 
+/// The most photons an iteration may trace: 2²⁶ (the default is at most
+/// 2²²), a few seconds an iteration; more would make one pass unending.
+pub const MAX_PHOTONS: u32 = 1 << 26;
+
+/// The smallest photon radius, in scene units.
+const MIN_RADIUS: f32 = 1e-6;
+
+/// The smallest wavelength kernel half-width, in nm.
+const MIN_SPECTRAL_RADIUS: f32 = 1e-3;
+
 /// Photon mapping's own keys of `[integrator]`.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -108,9 +118,11 @@ impl Configure for Sppm {
 
     fn configure(common: &CommonParams, spec: SppmParams) -> Result<Self, String> {
         let d = Sppm::default();
-        let positive = |key: &str, v: Option<f32>| match v {
-            Some(v) if !(v > 0.0 && v.is_finite()) => Err(format!(
-                "`integrator.{key}` must be a positive number, not {v}"
+        // Below `least`, a kernel's 1/r² (or 1/width) overflows the f32
+        // sums it is added to.
+        let positive = |key: &str, v: Option<f32>, least: f32| match v {
+            Some(v) if !(v >= least && v.is_finite()) => Err(format!(
+                "`integrator.{key}` must be a number of at least {least:e}, not {v}"
             )),
             _ => Ok(v),
         };
@@ -120,16 +132,19 @@ impl Configure for Sppm {
                 "`integrator.alpha` must lie in (0, 1], not {alpha}"
             ));
         }
-        if spec.photons == Some(0) {
-            return Err("`integrator.photons` must be at least 1".into());
+        if let Some(n) = spec.photons.filter(|n| !(1..=MAX_PHOTONS).contains(n)) {
+            return Err(format!(
+                "`integrator.photons` must be between 1 and {MAX_PHOTONS} per iteration, not {n}"
+            ));
         }
         Ok(Sppm::new(
             common.max_depth.unwrap_or(d.max_depth),
             common.rr_depth.unwrap_or(d.rr_depth),
             spec.photons,
-            positive("radius", spec.radius)?,
+            positive("radius", spec.radius, MIN_RADIUS)?,
             alpha,
-            positive("spectral_radius", spec.spectral_radius)?.unwrap_or(d.spectral_radius),
+            positive("spectral_radius", spec.spectral_radius, MIN_SPECTRAL_RADIUS)?
+                .unwrap_or(d.spectral_radius),
         ))
     }
 }

@@ -77,11 +77,14 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
         .filter(|&&c| c == 0.0)
         .count();
     let samples = merged.attributes[ATTR_SAMPLES].clone();
-    // The merged image goes into the file without a copy of its planes.
-    spectral_exr::write_image(merged, &spectral)?;
-    write_rgb_exr_in(&rgb, w, h, space, &exr)?;
-    let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
-    display::write_png(&display_rgb, w, h, &png, &settings)?;
+    // The three files replace the old ones together, or none does. The
+    // merged image goes into its file without a copy of its planes.
+    crate::film::output::as_one_set(|| {
+        spectral_exr::write_image(merged, &spectral)?;
+        write_rgb_exr_in(&rgb, w, h, space, &exr)?;
+        let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
+        display::write_png(&display_rgb, w, h, &png, &settings)
+    })?;
     if uncovered > 0 {
         eprintln!(
             "warning: {uncovered} of {} pixels are in no part: they are black",

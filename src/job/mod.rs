@@ -95,7 +95,7 @@ fn temporary_pid(file: &str, name: &str) -> Option<u32> {
     let rest = file.strip_prefix('.')?.strip_prefix(name)?;
     let rest = rest.strip_prefix(".spectral").unwrap_or(rest);
     let (pid, ext) = rest.strip_prefix(".partial-")?.split_once('.')?;
-    matches!(ext, "exr" | "png").then_some(())?;
+    matches!(ext, "exr" | "png" | "retired").then_some(())?;
     pid.parse().ok()
 }
 

@@ -20,7 +20,7 @@ use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
 use crate::load::{self, Loaded, Overrides};
 use crate::memory::for_people;
-use crate::merge::{ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
+use crate::merge::{ATTR_ADAPTIVE, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
 use crate::render::{
     memory_estimate, render, PassHook, RenderOptions, RenderSettings, RenderStats, Stop,
 };
@@ -370,7 +370,13 @@ fn write_outputs(
             if stats.stop != Stop::Complete {
                 extra.push(("prismInterrupted", "true".into()));
             }
+            if job.adaptive {
+                extra.push((ATTR_ADAPTIVE, "true".into()));
+            }
             spectral_exr::write(result, &film.colour, &spectral, &extra)?;
+        } else {
+            // An earlier render's spectral file is not of this image.
+            output::retire_in_set(&suffixed(stem, "spectral.exr"));
         }
         Ok(())
     })?;

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::spectra::Role;
+use super::spectra::{Role, MAX_RADIANCE};
 use super::{Loader, MAX_COORDINATE};
 use crate::light::{
     band_wavelength, Cone, DirectionalLight, EnvironmentMap, Light, PointLight, Sky, SkyModel, Sun,
@@ -57,6 +57,14 @@ impl Loader {
                 let path = self.input_file(rel.as_ref(), "environment.file")?;
                 let (w, h, rgb) = read_radiance_image(&path)
                     .map_err(|e| self.error(format!("`environment.file`: {e}")))?;
+                let brightest = rgb.iter().fold(0.0f32, |m, c| m.max(c.max_element()));
+                if !(brightest * scale <= MAX_RADIANCE) {
+                    return Err(self.error(format!(
+                        "`environment.file`: its brightest texel ({brightest:e}) times \
+                         `environment.scale` ({scale:e}) is beyond what f32 arithmetic carries \
+                         through a path (limit {MAX_RADIANCE:e})"
+                    )));
+                }
                 let rotate = env.rotate.unwrap_or(0.0);
                 Ok(vec![Light::EnvironmentMap(EnvironmentMap::new(
                     w as usize, h as usize, &rgb, scale, rotate,
@@ -78,12 +86,20 @@ impl Loader {
 
     /// The Hosek–Wilkie sky dome and sun disc, each a light.
     fn sky(&self, sky: &SkySpec, scale: f32, file: &SceneFile) -> Result<Vec<Light>, SceneError> {
+        // Large numbers in e-notation: 1e38, not 39 digits.
+        let num = |v: f32| match v.abs() >= 1e6 {
+            true => format!("{v:e}"),
+            false => format!("{v}"),
+        };
         let in_range = |key: &str, v: f32, lo: f32, hi: f32, what: &str| {
             if (lo..=hi).contains(&v) {
                 Ok(v)
             } else {
                 Err(self.error(format!(
-                    "`environment.sky.{key}` = {v} is outside [{lo}, {hi}]{what}"
+                    "`environment.sky.{key}` = {} is outside [{}, {}]{what}",
+                    num(v),
+                    num(lo),
+                    num(hi)
                 )))
             }
         };
@@ -102,8 +118,29 @@ impl Loader {
             10.0,
             ", the model's range (1 very clear, 10 hazy)",
         )?;
-        let sun_scale = in_range("sun_scale", sky.sun_scale.unwrap_or(1.0), 0.0, f32::MAX, "")?;
-        let sky_scale = in_range("sky_scale", sky.sky_scale.unwrap_or(1.0), 0.0, f32::MAX, "")?;
+        // The model's radiances reach about 1e5 (the sun's disc): scales
+        // up to MAX_SKY_SCALE keep every product within f32.
+        let sun_scale = in_range(
+            "sun_scale",
+            sky.sun_scale.unwrap_or(1.0),
+            0.0,
+            MAX_SKY_SCALE,
+            ": larger, the radiance would overflow f32",
+        )?;
+        let sky_scale = in_range(
+            "sky_scale",
+            sky.sky_scale.unwrap_or(1.0),
+            0.0,
+            MAX_SKY_SCALE,
+            ": larger, the radiance would overflow f32",
+        )?;
+        if !(sun_scale.max(sky_scale) * scale <= MAX_SKY_SCALE) {
+            return Err(self.error(format!(
+                "`environment.scale` times `environment.sky.sun_scale` or `sky_scale` is \
+                 {:e}, beyond {MAX_SKY_SCALE:e}: the sky's radiance would overflow f32",
+                sun_scale.max(sky_scale) * scale
+            )));
+        }
         let aperture = sky.sun_aperture.unwrap_or(SUN_DIAMETER_DEGREES);
         if !(aperture > 0.0 && aperture <= 45.0) {
             return Err(self.error(format!(
@@ -197,9 +234,10 @@ impl Loader {
                     return Err(self.error(format!("`{key}.look_at` must differ from `position`")));
                 }
                 let end = s.cone_angle.unwrap_or(30.0);
-                if !(end > 0.0 && end <= 180.0) {
+                if !(MIN_CONE_DEGREES..=180.0).contains(&end) {
                     return Err(self.error(format!(
-                        "`{key}.cone_angle` must be in (0, 180] degrees, found {end}"
+                        "`{key}.cone_angle` must be in [{MIN_CONE_DEGREES}, 180] degrees (a narrower \
+                         cone's cosine is 1 in single precision: it would light nothing), found {end}"
                     )));
                 }
                 let start = s.falloff_start.unwrap_or((end - 5.0).max(0.0));
@@ -213,14 +251,23 @@ impl Loader {
                     cos_falloff_start: start.to_radians().cos(),
                     cos_falloff_end: end.to_radians().cos(),
                 };
-                let solid_angle =
-                    2.0 * PI * (1.0 - 0.5 * (cone.cos_falloff_start + cone.cos_falloff_end));
+                // 2π(1 − (cos θs + cos θe)/2), written with 1 − cos θ =
+                // 2 sin²(θ/2) so that narrow cones keep their digits.
+                let half_sin2 = |degrees: f32| (0.5 * degrees.to_radians()).sin().powi(2);
+                let solid_angle = 2.0 * PI * (half_sin2(start) + half_sin2(end));
                 let i = intensity(s.intensity.as_ref(), s.power.as_ref(), solid_angle)?;
                 Ok(Light::Point(PointLight::new(position, i, Some(cone))))
             }
         }
     }
 }
+
+/// The largest factor on the Hosek–Wilkie sky and sun (see `sky`).
+const MAX_SKY_SCALE: f32 = 1e20;
+
+/// Narrowest spot cone accepted, in degrees: cos(0.1°) = 1 − 1.5e-6 still
+/// has about 25 steps of single precision below 1.
+const MIN_CONE_DEGREES: f32 = 0.1;
 
 /// Largest environment map side (texels); a map is kept as 16 bytes a texel
 /// plus its sampling tables.

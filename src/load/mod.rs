@@ -266,10 +266,15 @@ impl Loader {
     fn load_scene(&self, text: &str, overrides: &Overrides) -> Result<Loaded, SceneError> {
         let value: toml::Table =
             toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
-        if let Some(key) = first_non_finite(&toml::Value::Table(value), "") {
-            return Err(self.error(format!(
-                "`{key}` is not a finite number; numbers in a scene must be finite"
-            )));
+        if let Some((key, v)) = first_non_finite(&toml::Value::Table(value), "") {
+            return Err(self.error(if v.is_finite() {
+                format!(
+                    "`{key}` = {v:e} is beyond single precision (±{:e}), which prism computes in",
+                    f32::MAX
+                )
+            } else {
+                format!("`{key}` is not a finite number; numbers in a scene must be finite")
+            }));
         }
         let mut file: SceneFile = toml::from_str(text)
             .map_err(|e| self.error(with_suggestion(in_typed_table(text, e.to_string()))))?;
@@ -359,10 +364,11 @@ fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
     }
 }
 
-/// The dotted key of the first NaN or infinite number in a TOML value.
-fn first_non_finite(v: &toml::Value, key: &str) -> Option<String> {
+/// The dotted key of the first number in a TOML value that is NaN,
+/// infinite, or finite but infinite in single precision (1e39), with it.
+fn first_non_finite(v: &toml::Value, key: &str) -> Option<(String, f64)> {
     match v {
-        toml::Value::Float(f) if !f.is_finite() => Some(key.to_string()),
+        toml::Value::Float(f) if !(f.abs() <= f32::MAX as f64) => Some((key.to_string(), *f)),
         toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
             let sub = if key.is_empty() {
                 k.clone()

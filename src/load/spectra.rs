@@ -23,6 +23,10 @@ pub(super) enum Role {
     Unbounded,
 }
 
+/// The brightest emission accepted: f32 arithmetic must carry it through
+/// a path's products and a film's sums.
+pub(super) const MAX_RADIANCE: f32 = 1e30;
+
 impl Loader {
     pub(super) fn spectrum(
         &self,
@@ -103,7 +107,6 @@ impl Loader {
     /// throughputs and divide it by densities): better an error than a
     /// black image with a count of dropped samples.
     pub(super) fn checked_emission(&self, s: Spectrum, key: &str) -> Result<Spectrum, SceneError> {
-        const MAX_RADIANCE: f32 = 1e30;
         let peak = (LAMBDA_MIN as u32..=LAMBDA_MAX as u32)
             .map(|l| s.eval(l as f32))
             .fold(

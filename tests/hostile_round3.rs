@@ -1,0 +1,314 @@
+//! Bad input, round 3: each case failed before its fix (a panic, a silent
+//! non-finite image, an unending render, or files that were not one set)
+//! and is refused or handled now.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use prism::light::LightSource;
+use prism::load::load_str;
+
+const CAMERA: &str = "[camera]\nposition = [0, 1, -4]\nlook_at = [0, 0.5, 0]\n";
+
+fn prism(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+fn refused(text: &str) -> String {
+    match load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))) {
+        Ok(_) => panic!("loaded:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Durations the clock cannot add to an instant, and an infinite log
+/// interval, panicked (exit 101); they are a command-line error (exit 2).
+#[test]
+fn durations_beyond_the_clock_are_refused_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), CAMERA).unwrap();
+    for (flag, value) in [
+        ("--time", "99999999999999999999h"),
+        ("--time", "18446744073709551616s"),
+        ("--log-every", "inf"),
+        ("--log-every", "1e30"),
+        ("--preview-every", "1e300"),
+    ] {
+        let out = prism(&["render", "s.toml", flag, value], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{flag} {value}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// A float that is finite in TOML (f64) but infinite as f32 was read as
+/// infinity (`environment.rotate = 1e39` made NaN directions, dropped
+/// silently).
+#[test]
+fn numbers_beyond_single_precision_are_refused_naming_the_key() {
+    let e = refused(&format!(
+        "{CAMERA}[environment]\nfile = \"scenes/assets/studio.hdr\"\nrotate = 1e39\n"
+    ));
+    assert!(
+        e.contains("`environment.rotate`") && e.contains("beyond single precision"),
+        "{e}"
+    );
+}
+
+/// Environment emission escaped the 1e30 limit shapes and lights have.
+#[test]
+fn environment_emission_beyond_f32_is_refused() {
+    for (keys, key) in [
+        (
+            "sky = { sun_elevation = 30, sun_scale = 1e38 }",
+            "sun_scale",
+        ),
+        (
+            "sky = { sun_elevation = 30, sky_scale = 1e38 }",
+            "sky_scale",
+        ),
+        (
+            "sky = { sun_elevation = 30 }\nscale = 1e25",
+            "environment.scale",
+        ),
+    ] {
+        let e = refused(&format!("{CAMERA}[environment]\n{keys}\n"));
+        assert!(e.contains(key) && e.contains("f32"), "{keys}: {e}");
+    }
+    // A map whose brightest texel times the scale passes the limit.
+    let dir = tempfile::tempdir().unwrap();
+    let mut img = image::Rgb32FImage::new(4, 2);
+    img.put_pixel(1, 1, image::Rgb([1e20, 1.0, 1.0]));
+    img.save(dir.path().join("hot.hdr")).unwrap();
+    let text = format!("{CAMERA}[environment]\nfile = \"hot.hdr\"\nscale = 1e12\n");
+    let e = match load_str(&text, dir.path()) {
+        Ok(_) => panic!("a map beyond f32 loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("brightest texel") && e.contains("1e30"), "{e}");
+    assert!(load_str(&text.replace("1e12", "1"), dir.path()).is_ok());
+}
+
+/// Unbounded work: 2³²−1 photons an iteration, or bounces, ran on and on.
+#[test]
+fn unbounded_work_is_refused_before_rendering() {
+    for (keys, key) in [
+        (
+            "type = \"sppm\"\nphotons = 4294967295",
+            "integrator.photons",
+        ),
+        ("max_depth = 4294967295", "integrator.max_depth"),
+        (
+            "type = \"bdpt\"\nmax_depth = 4294967295",
+            "integrator.max_depth",
+        ),
+        ("type = \"sppm\"\nradius = 1e-30", "integrator.radius"),
+        (
+            "type = \"sppm\"\nspectral_radius = 1e-30",
+            "integrator.spectral_radius",
+        ),
+    ] {
+        let e = refused(&format!("{CAMERA}[integrator]\n{keys}\n"));
+        assert!(e.contains(key), "{keys}: {e}");
+    }
+    let fine = format!("{CAMERA}[integrator]\nmax_depth = 131072\n");
+    assert!(load_str(&fine, Path::new(".")).is_ok());
+}
+
+/// A spot light given by power with a cone of 0.01° had a solid angle of 0
+/// in f32 and was dropped silently (then "no light" was warned, wrongly).
+#[test]
+fn a_spot_too_narrow_for_f32_is_refused_and_a_narrow_one_keeps_its_power() {
+    let spot = |angle: f32| {
+        format!(
+            "{CAMERA}[[light]]\ntype = \"spot\"\nposition = [0, 2, 0]\nlook_at = [0, 0, 0]\n\
+             power = 10\ncone_angle = {angle}\nfalloff_start = 0\n"
+        )
+    };
+    let e = refused(&spot(0.01));
+    assert!(
+        e.contains("light[0].cone_angle") && e.contains("single precision"),
+        "{e}"
+    );
+    // At 0.1° the power spread over the cone gives the closed-form
+    // intensity: Φ / (2π(1 − (1 + cos θ)/2)) with θ = 0.1°.
+    let loaded = load_str(&spot(0.1), Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap();
+    assert!(
+        loaded.report.warnings.is_empty(),
+        "{:?}",
+        loaded.report.warnings
+    );
+    let theta = 0.1f64.to_radians();
+    let expected = 10.0 / (2.0 * std::f64::consts::PI * (1.0 - (1.0 + theta.cos()) / 2.0));
+    let intensity = loaded.scene.lights.get(0).spectrum().unwrap().eval(550.0) as f64;
+    assert!(
+        (intensity / expected - 1.0).abs() < 1e-3,
+        "intensity {intensity}, expected {expected}"
+    );
+}
+
+/// `--adaptive` parts held up to 16× their range's samples and merged with
+/// exit 0, counting sample indices twice.
+#[test]
+fn adaptive_renders_are_not_parts() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let out = prism(
+        &[
+            "render",
+            "scenes/cornell-box.toml",
+            "--adaptive",
+            "--samples",
+            "0..4",
+        ],
+        root,
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stem = dir.path().join("adaptive");
+    let out = prism(
+        &[
+            "render",
+            "scenes/cornell-box.toml",
+            "--adaptive",
+            "--spp",
+            "8",
+            "--resolution",
+            "24x16",
+            "-q",
+            "-o",
+            stem.to_str().unwrap(),
+        ],
+        root,
+    );
+    assert!(out.status.success());
+    let part = dir.path().join("part");
+    let out = prism(
+        &[
+            "render",
+            "scenes/cornell-box.toml",
+            "--samples",
+            "8..16",
+            "--resolution",
+            "24x16",
+            "-q",
+            "-o",
+            part.to_str().unwrap(),
+        ],
+        root,
+    );
+    assert!(out.status.success());
+    let merged = dir.path().join("merged");
+    let out = prism(
+        &[
+            "merge",
+            stem.with_extension("spectral.exr").to_str().unwrap(),
+            part.with_extension("spectral.exr").to_str().unwrap(),
+            "-o",
+            merged.to_str().unwrap(),
+        ],
+        root,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("adaptive"), "{err}");
+}
+
+/// `prism merge` replaced its files one by one: with OUT.png a folder,
+/// OUT.exr and OUT.spectral.exr were already replaced when it failed.
+#[test]
+fn a_merge_replaces_its_files_as_one_set_or_none() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("part");
+    let args = |stem: &Path| {
+        vec![
+            "render".to_string(),
+            "scenes/cornell-box.toml".into(),
+            "--samples".into(),
+            "0..2".into(),
+            "--resolution".into(),
+            "24x16".into(),
+            "-q".into(),
+            "-o".into(),
+            stem.display().to_string(),
+        ]
+    };
+    let a: Vec<String> = args(&part);
+    assert!(
+        prism(&a.iter().map(String::as_str).collect::<Vec<_>>(), root)
+            .status
+            .success()
+    );
+    let out_stem = dir.path().join("out");
+    std::fs::write(out_stem.with_extension("exr"), b"old exr").unwrap();
+    std::fs::write(out_stem.with_extension("spectral.exr"), b"old spectral").unwrap();
+    std::fs::create_dir(out_stem.with_extension("png")).unwrap();
+    let out = prism(
+        &[
+            "merge",
+            part.with_extension("spectral.exr").to_str().unwrap(),
+            "-o",
+            out_stem.to_str().unwrap(),
+        ],
+        root,
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        std::fs::read(out_stem.with_extension("exr")).unwrap(),
+        b"old exr"
+    );
+    assert_eq!(
+        std::fs::read(out_stem.with_extension("spectral.exr")).unwrap(),
+        b"old spectral"
+    );
+    let hidden: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .collect();
+    assert!(hidden.is_empty(), "temporaries left: {hidden:?}");
+}
+
+/// `--no-spectral` over an earlier render left its NAME.spectral.exr beside
+/// the new NAME.exr and NAME.png.
+#[test]
+fn no_spectral_over_an_earlier_render_takes_its_spectral_file_away() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("r");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "scenes/cornell-box.toml",
+            "--spp",
+            "2",
+            "--resolution",
+            "24x16",
+            "-q",
+            "-o",
+            stem.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        assert!(prism(&args, root).status.success());
+    };
+    render(&[]);
+    assert!(stem.with_extension("spectral.exr").exists());
+    render(&["--no-spectral"]);
+    assert!(stem.with_extension("exr").exists() && stem.with_extension("png").exists());
+    assert!(!stem.with_extension("spectral.exr").exists());
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    assert_eq!(left.len(), 2, "{left:?}");
+}
