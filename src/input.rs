@@ -68,6 +68,9 @@ pub fn regular_file_size(path: &Path) -> Result<u64, String> {
 /// ("cannot read: …").
 pub fn read(path: &Path) -> Result<Vec<u8>, String> {
     let size = regular_file_size(path)?;
+    // The bytes are held while they are decoded: a file larger than the
+    // budget (a sparse one reads as zeros) is refused before it is read.
+    crate::memory::check("reading the file", size)?;
     let mut bytes = Vec::with_capacity(size as usize);
     std::fs::File::open(path)
         .and_then(|f| f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes))

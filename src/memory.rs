@@ -5,8 +5,10 @@
 //! 23000×23000 texels is refused with a message instead of aborting the
 //! process in an allocator.
 //!
-//! The budget is `--max-memory` where given, else the memory the system
-//! reports available when the process starts. Loading a scene tallies what
+//! The budget is `--max-memory` where given, else the least of what the
+//! process may still use when it starts: the memory the system reports
+//! available, the address space under `ulimit -v` (RLIMIT_AS), and what
+//! its cgroup's `memory.max` leaves (containers, Slurm). Loading a scene tallies what
 //! its inputs hold on the loading thread ([`tallying`]), so that a thousand
 //! textures that each fit cannot add up to more than the budget.
 
@@ -33,24 +35,98 @@ pub fn set_limit(bytes: u64) {
 /// The budget in bytes, and where it comes from (for messages).
 pub fn limit() -> (u64, &'static str) {
     match LIMIT.load(Ordering::Relaxed) {
-        0 => (
-            available().unwrap_or(FALLBACK_LIMIT),
-            "the memory available",
-        ),
+        0 => available().unwrap_or((FALLBACK_LIMIT, "the memory available")),
         set => (set, "--max-memory"),
     }
 }
 
-/// The memory the system reported available (MemAvailable) when first
-/// asked: read once, so that the process's own allocations do not shrink it.
-fn available() -> Option<u64> {
-    static AVAILABLE: OnceLock<Option<u64>> = OnceLock::new();
+/// The least of the limits the process lives under, with its name: read
+/// once, when first asked, so that the process's own allocations do not
+/// shrink it.
+fn available() -> Option<(u64, &'static str)> {
+    static AVAILABLE: OnceLock<Option<(u64, &'static str)>> = OnceLock::new();
     *AVAILABLE.get_or_init(|| {
-        let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-        let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-        Some(kib * 1024)
+        [
+            mem_available().map(|b| (b, "the memory available")),
+            address_space_left().map(|b| (b, "the address space left under `ulimit -v`")),
+            cgroup_left().map(|b| (b, "what the cgroup's memory.max leaves")),
+        ]
+        .into_iter()
+        .flatten()
+        .min_by_key(|&(bytes, _)| bytes)
     })
+}
+
+/// MemAvailable of /proc/meminfo.
+fn mem_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Address space each worker thread reserves without touching it: its
+/// stack, and the allocator arena glibc maps for it (64 MiB).
+const RESERVED_PER_THREAD: u64 = 72 << 20;
+
+/// RLIMIT_AS (`ulimit -v`) less the address space mapped now and what the
+/// worker threads will reserve; None when unlimited.
+fn address_space_left() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    let soft: u64 = line.split_whitespace().nth(3)?.parse().ok()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let mapped_kib: u64 = status
+        .lines()
+        .find(|l| l.starts_with("VmSize:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()) as u64;
+    Some(
+        soft.saturating_sub(mapped_kib * 1024)
+            .saturating_sub(threads * RESERVED_PER_THREAD),
+    )
+}
+
+/// The least that `memory.max` less `memory.current` leaves over the
+/// process's cgroup and its ancestors (cgroup v2), or the v1 memory
+/// controller's limit less its usage; None without a limit.
+fn cgroup_left() -> Option<u64> {
+    let cgroups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let left = |dir: &std::path::Path, max: &str, current: &str| -> Option<u64> {
+        let read = |f: &str| std::fs::read_to_string(dir.join(f)).ok();
+        let max: u64 = read(max)?.trim().parse().ok()?; // "max": no limit
+        let current: u64 = read(current)?.trim().parse().ok()?;
+        // v1 writes "no limit" as a number near 2⁶³.
+        (max < 1 << 60).then(|| max.saturating_sub(current))
+    };
+    let mut least: Option<u64> = None;
+    for line in cgroups.lines() {
+        let mut fields = line.splitn(3, ':');
+        let (_, controllers, path) = (fields.next()?, fields.next()?, fields.next()?);
+        let (root, max, current) = match controllers {
+            "" => ("/sys/fs/cgroup", "memory.max", "memory.current"),
+            c if c.split(',').any(|c| c == "memory") => (
+                "/sys/fs/cgroup/memory",
+                "memory.limit_in_bytes",
+                "memory.usage_in_bytes",
+            ),
+            _ => continue,
+        };
+        let mut dir = std::path::PathBuf::from(root);
+        dir.push(path.trim_start_matches('/'));
+        // The group and each ancestor up to the hierarchy's root.
+        for ancestor in dir.ancestors().take_while(|d| d.starts_with(root)) {
+            if let Some(l) = left(ancestor, max, current) {
+                least = Some(least.map_or(l, |m| m.min(l)));
+            }
+        }
+    }
+    least
 }
 
 /// Runs `f` with a fresh tally against `budget`; where None, against what

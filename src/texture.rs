@@ -292,7 +292,28 @@ pub fn decode_image(bytes: &[u8], scratch: u64, held: u64) -> Result<image::Dyna
             .saturating_add(texels.saturating_mul(scratch + held)),
     )?;
     memory::hold(&what, texels * held)?;
-    image::DynamicImage::from_decoder(decoder).map_err(cannot)
+    // A decoder that panics on a forged file (an allocation the image
+    // crate does not expect to fail) is an error naming the file, not the
+    // end of the process.
+    without_panicking(|| image::DynamicImage::from_decoder(decoder))
+        .map_err(|e| format!("cannot decode: the decoder failed ({e})"))?
+        .map_err(cannot)
+}
+
+/// Runs `f`, turning a panic into an error (with the panic's message, and
+/// without printing it: the caller reports it).
+pub fn without_panicking<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    std::panic::set_hook(hook);
+    result.map_err(|payload| {
+        payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic".into())
+    })
 }
 
 /// Whether JPEG bytes stop before their end-of-image marker: a truncated

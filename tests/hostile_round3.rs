@@ -312,3 +312,56 @@ fn no_spectral_over_an_earlier_render_takes_its_spectral_file_away() {
         .collect();
     assert_eq!(left.len(), 2, "{left:?}");
 }
+
+/// The budget was MemAvailable or `--max-memory` alone: under `ulimit -v`
+/// (RLIMIT_AS, as clusters set it) a render that fits the machine but not
+/// the address space aborted in the allocator. The address space left is
+/// part of the budget now, and the refusal names it.
+#[test]
+fn the_memory_budget_honours_the_address_space_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = format!(
+        "{CAMERA}[film]\nresolution = [3000, 3000]\n\
+         [[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n"
+    );
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let out = Command::new("bash")
+        .args([
+            "-c",
+            "ulimit -v 2097152 && exec \"$PRISM\" render s.toml -q -o out",
+        ])
+        .env("PRISM", env!("CARGO_BIN_EXE_prism"))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("the film (3000x3000 pixels") && err.contains("ulimit -v"),
+        "{err}"
+    );
+}
+
+/// A file larger than the budget was read whole before any check (a
+/// sparse file of gigabytes as an environment map aborted even under
+/// `--max-memory`).
+#[test]
+fn an_input_file_larger_than_the_budget_is_refused_before_it_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = std::fs::File::create(dir.path().join("sparse.hdr")).unwrap();
+    map.set_len(3 << 30).unwrap(); // sparse: no disk used
+    let scene = format!("{CAMERA}[environment]\nfile = \"sparse.hdr\"\n");
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let out = prism(
+        &["--max-memory", "1G", "render", "s.toml", "-q", "-o", "out"],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("sparse.hdr")
+            && err.contains("reading the file")
+            && err.contains("--max-memory"),
+        "{err}"
+    );
+}
