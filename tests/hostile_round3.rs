@@ -365,3 +365,33 @@ fn an_input_file_larger_than_the_budget_is_refused_before_it_is_read() {
         "{err}"
     );
 }
+
+/// MTL values were used or dropped without a word (`d -1`, `Kd nan`,
+/// `Ni -2`, `Ke 1e38`): each is a warning naming file, line, key and
+/// material now, and an emission beyond f32 is an error.
+#[test]
+fn mtl_values_are_checked_naming_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
+    std::fs::write(dir.path().join("q.obj"), obj).unwrap();
+    let scene = format!("{CAMERA}[[shape]]\ntype = \"obj\"\nfile = \"q.obj\"\n");
+    let mtl = "newmtl a\nKd nan 0.5 0.5\nd -1\nNi -2\nKs 0.1 -3 0\nKe 2 2 2\n";
+    std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+    let loaded = load_str(&scene, dir.path()).unwrap();
+    let warnings = loaded.report.warnings.join("\n");
+    for (line, key) in [(2, "Kd"), (3, "d"), (4, "Ni"), (5, "Ks")] {
+        assert!(
+            warnings.contains(&format!("m.mtl:{line}: `{key}` of material `a`")),
+            "{key}: {warnings}"
+        );
+    }
+    std::fs::write(dir.path().join("m.mtl"), "newmtl a\nKe 1e38 0 0\n").unwrap();
+    let e = match load_str(&scene, dir.path()) {
+        Ok(_) => panic!("an emission of 1e38 loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("m.mtl:2: `Ke` of material `a`") && e.contains("1e30"),
+        "{e}"
+    );
+}

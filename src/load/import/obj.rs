@@ -64,17 +64,24 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     let mut mtl_materials: Vec<tobj::Material> = Vec::new();
     let mut by_name: std::collections::HashMap<String, usize> = Default::default();
     let mut mtl_dir = base.clone();
+    // Values of the MTL files that were out of range, by material.
+    let mut value_warnings: std::collections::HashMap<String, Vec<String>> = Default::default();
     for (k, library) in geometry.material_libraries.iter().enumerate() {
         let full = base.join(library);
         if k == 0 {
             mtl_dir = full.parent().unwrap_or(&base).to_path_buf();
         }
         let read = crate::input::read(&full).and_then(|text| {
+            let checked = check_mtl_values(&String::from_utf8_lossy(&text), &full);
             tobj::load_mtl_buf(&mut std::io::Cursor::new(text))
+                .map(|(materials, _)| (materials, checked))
                 .map_err(|e| format!("cannot be read ({e})"))
         });
         match read {
-            Ok((materials, _)) => {
+            Ok((materials, checked)) => {
+                for (name, warning) in checked? {
+                    value_warnings.entry(name).or_default().push(warning);
+                }
                 for m in materials {
                     by_name.insert(m.name.clone(), mtl_materials.len());
                     mtl_materials.push(m);
@@ -91,6 +98,7 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     let mut said: Vec<(Vec<String>, Vec<String>)> = Vec::new();
     for m in &mtl_materials {
         let (mut warnings, mut ignored) = (Vec::new(), Vec::new());
+        warnings.extend(value_warnings.remove(&m.name).unwrap_or_default());
         asset
             .materials
             .push(material(m, &mtl_dir, textures, &mut warnings, &mut ignored));
@@ -253,6 +261,64 @@ fn ignoring_case(dir: &Path, relative: &str) -> Option<PathBuf> {
     path.is_file().then_some(path)
 }
 
+/// Checks the numbers of an MTL file as the scene file's are checked: a
+/// value that is not finite, or out of its range, is a warning naming the
+/// file, line, key and material, with what is used instead; an emission
+/// beyond what f32 carries is an error. Returns the warnings by material.
+fn check_mtl_values(text: &str, path: &Path) -> Result<Vec<(String, String)>, String> {
+    let mut out = Vec::new();
+    let mut material = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        if key == "newmtl" {
+            material = words.collect::<Vec<_>>().join(" ");
+            continue;
+        }
+        // The range each key's numbers must lie in, and what is done
+        // otherwise.
+        let (lo, hi, instead) = match key {
+            "Kd" => (0.0, f32::MAX, "0.8 is used"),
+            "Ks" | "Ka" | "Tf" => (0.0, f32::MAX, "0 is used"),
+            "Ke" => (0.0, MAX_EMISSION, "0 is used"),
+            "d" => (0.0, 1.0, "it is clamped to [0, 1] (1 where not a number)"),
+            "Tr" => (0.0, 1.0, "it is clamped to [0, 1] (0 where not a number)"),
+            "Ni" => (1.0, 10.0, "the index is ignored (glass takes 1.5)"),
+            "Ns" => (0.0, f32::MAX, "0 is used"),
+            _ => continue,
+        };
+        let at = format!("{}:{}", path.display(), i + 1);
+        for word in words.take(3) {
+            let Ok(v) = word.parse::<f32>() else { continue };
+            if key == "Ke" && !(v <= MAX_EMISSION) {
+                return Err(format!(
+                    "{at}: `Ke` of material `{material}` is {v:e}, beyond what f32 arithmetic \
+                     carries through a path (limit {MAX_EMISSION:e})"
+                ));
+            }
+            if !(lo..=hi).contains(&v) {
+                let what = if v.is_finite() {
+                    "outside"
+                } else {
+                    "not a number in"
+                };
+                out.push((
+                    material.clone(),
+                    format!(
+                        "{at}: `{key}` of material `{material}` is {v}, {what} [{lo}, {}]: {instead}",
+                        if hi == f32::MAX { "∞".to_string() } else { hi.to_string() }
+                    ),
+                ));
+                break;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The brightest MTL emission accepted (the scene file's limit).
+const MAX_EMISSION: f32 = 1e30;
+
 fn material(
     m: &tobj::Material,
     dir: &Path,
@@ -260,7 +326,12 @@ fn material(
     warnings: &mut Vec<String>,
     ignored: &mut Vec<String>,
 ) -> AssetMaterial {
-    let rgb = |c: Option<[f32; 3]>| c.map(Vec3::from).filter(|c| c.is_finite());
+    // Not finite: the default; below zero: zero (`check_mtl_values` warns).
+    let rgb = |c: Option<[f32; 3]>| {
+        c.map(Vec3::from)
+            .filter(|c| c.is_finite())
+            .map(|c| c.max(Vec3::ZERO))
+    };
     let kd = rgb(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = rgb(m.specular).unwrap_or(Vec3::ZERO);
     let ke = rgb(m.emissive).unwrap_or(Vec3::ZERO);
