@@ -668,3 +668,153 @@ fn special_files_in_place_of_any_input_are_refused_without_blocking() {
         );
     }
 }
+
+/// A number at an extreme: zero, tiny, huge, beyond f32, negative, not one.
+fn extreme_number() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("0".to_string()),
+        Just("-1".to_string()),
+        Just("1e-30".to_string()),
+        Just("1e-45".to_string()),
+        Just("1e30".to_string()),
+        Just("1e38".to_string()),
+        Just("3.5e38".to_string()),
+        Just("1e300".to_string()),
+        Just("nan".to_string()),
+        Just("inf".to_string()),
+        Just("-inf".to_string()),
+        (0.0f64..4.0).prop_map(|v| format!("{v}")),
+    ]
+}
+
+proptest! {
+    #![proptest_config(config(200))]
+
+    /// MTL values at their extremes load with warnings, or fail naming the
+    /// file; what loads renders finite.
+    #[test]
+    fn mtl_values_at_extremes_load_or_fail_cleanly(
+        values in proptest::collection::vec(
+            (prop_oneof![Just("Kd"), Just("Ks"), Just("Ke"), Just("Ka"), Just("d"), Just("Tr"),
+                         Just("Ni"), Just("Ns"), Just("Tf"), Just("illum")],
+             extreme_number()),
+            1..6,
+        )
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = "mtllib m.mtl\nv -1 -1 0\nv 1 -1 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
+        std::fs::write(dir.path().join("m.obj"), obj).unwrap();
+        let mut mtl = "newmtl a\n".to_string();
+        for (key, v) in &values {
+            let v = if ["Kd", "Ks", "Ke", "Ka", "Tf"].contains(key) { format!("{v} {v} {v}") } else { v.clone() };
+            mtl.push_str(&format!("{key} {v}\n"));
+        }
+        std::fs::write(dir.path().join("m.mtl"), &mtl).unwrap();
+        let scene = "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\nspp = 1\n\
+                     [environment]\nradiance = 1\n[[shape]]\ntype = \"obj\"\nfile = \"m.obj\"\n";
+        match prism::load::load_str(scene, dir.path()) {
+            Ok(s) => {
+                let options = prism::render::RenderOptions { threads: Some(1), ..s.settings.options() };
+                let (film, stats) = prism::render::render(&s.scene, &s.settings, &options).unwrap();
+                prop_assert_eq!(stats.non_finite, 0, "{}", mtl);
+                prop_assert!(film.linear_srgb().iter().all(|c| c.is_finite()), "{}", mtl);
+            }
+            Err(e) => prop_assert!(e.message.contains("m.mtl") || e.message.contains("m.obj"), "{}", e.message),
+        }
+    }
+
+    /// Integrator keys at their extremes are refused naming the key, or
+    /// render a small film finitely and in bounded time.
+    #[test]
+    fn integrator_keys_at_extremes_load_or_fail_cleanly(
+        kind in prop_oneof![Just("path"), Just("light"), Just("bdpt"), Just("sppm")],
+        key in prop_oneof![Just("max_depth"), Just("rr_depth"), Just("photons"), Just("radius"),
+                           Just("alpha"), Just("spectral_radius"), Just("split")],
+        value in prop_oneof![extreme_number(), Just("4294967295".to_string()), Just("65537".to_string())],
+    ) {
+        let scene = format!(
+            "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\nspp = 1\n\
+             [integrator]\ntype = \"{kind}\"\n{key} = {value}\n\
+             [[shape]]\ntype = \"sphere\"\nradius = 1\nemission = 1\n"
+        );
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        match prism::load::load_str(&scene, dir) {
+            Ok(s) => {
+                // Keep photon mapping's iteration small where the key
+                // allowed a large one: what is checked is the refusal.
+                if key == "photons" || key.ends_with("depth") {
+                    return Ok(());
+                }
+                let options = prism::render::RenderOptions { threads: Some(1), ..s.settings.options() };
+                let (film, stats) = prism::render::render(&s.scene, &s.settings, &options).unwrap();
+                prop_assert_eq!(stats.non_finite, 0, "{}", scene);
+                prop_assert!(film.linear_srgb().iter().all(|c| c.is_finite()));
+            }
+            Err(e) => prop_assert!(e.message.contains(&format!("integrator.{key}")) || e.message.contains(key), "{}", e.message),
+        }
+    }
+}
+
+/// Durations at their extremes are a command-line error, never a panic.
+#[test]
+fn durations_at_extremes_are_errors_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("s.toml"),
+        "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\nspp = 1\n",
+    )
+    .unwrap();
+    for flag in ["--time", "--log-every", "--preview-every"] {
+        for value in [
+            "0",
+            "-1",
+            "nan",
+            "inf",
+            "1e30",
+            "1e300h",
+            "99999999999999999999h",
+            "18446744073709551616s",
+            "5x",
+            "",
+        ] {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_prism"))
+                .args(["render", "s.toml", "-q", flag, value])
+                .current_dir(dir.path())
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{flag} {value:?}: {err}");
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(config(150))]
+
+    /// Environment maps of forged bytes (Radiance HDR headers declaring
+    /// any size, texels of any exponent up to 255) load and render finite,
+    /// or are refused naming `environment.file`.
+    #[test]
+    fn forged_environment_maps_load_or_are_refused(
+        w in prop_oneof![1u32..8, Just(16384u32), Just(1u32 << 30)],
+        h in prop_oneof![1u32..8, Just(16384u32), Just(1u32 << 30)],
+        texels in proptest::collection::vec(any::<u8>(), 0..256),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+        bytes.extend_from_slice(&texels);
+        std::fs::write(dir.path().join("map.hdr"), &bytes).unwrap();
+        let scene = "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nresolution = [4, 4]\nspp = 1\n\
+                     [environment]\nfile = \"map.hdr\"\n[[shape]]\ntype = \"sphere\"\nradius = 1\n";
+        let loaded = prism::memory::tallying(Some(1 << 30), || prism::load::load_str(scene, dir.path())).0;
+        match loaded {
+            Ok(s) => {
+                let options = prism::render::RenderOptions { threads: Some(1), ..s.settings.options() };
+                let (film, stats) = prism::render::render(&s.scene, &s.settings, &options).unwrap();
+                prop_assert_eq!(stats.non_finite, 0);
+                prop_assert!(film.linear_srgb().iter().all(|c| c.is_finite()));
+            }
+            Err(e) => prop_assert!(e.message.contains("environment.file"), "{}", e.message),
+        }
+    }
+}

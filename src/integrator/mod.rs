@@ -143,7 +143,7 @@ impl IntegratorSpec {
             .clone()
             .into_iter()
             .partition(|(k, _)| common_keys.contains(&k.as_str()));
-        let common = CommonParams::deserialize(toml::Value::Table(common)).map_err(field_error)?;
+        let common: CommonParams = parse_keys(common)?;
         for (key, depth) in [
             ("max_depth", common.max_depth),
             ("rr_depth", common.rr_depth),
@@ -199,9 +199,20 @@ impl<'de> Deserialize<'de> for IntegratorSpec {
     }
 }
 
-/// A parameter's error from serde, as the scene file's key.
-fn field_error(e: toml::de::Error) -> String {
-    format!("`[integrator]`: {}", e.message())
+/// Parses `table` as `T` (a struct of optional keys); an error names the
+/// key at fault, found by parsing each key alone (serde's message for a
+/// value of the wrong type does not say whose it is).
+fn parse_keys<T: serde::de::DeserializeOwned>(table: toml::Table) -> Result<T, String> {
+    T::deserialize(toml::Value::Table(table.clone())).map_err(|e| {
+        let culprit = table.iter().find(|(key, value)| {
+            let alone = toml::Table::from_iter([(key.to_string(), (*value).clone())]);
+            T::deserialize(toml::Value::Table(alone)).is_err()
+        });
+        match culprit {
+            Some((key, _)) => format!("`integrator.{key}`: {}", e.message()),
+            None => format!("`[integrator]`: {}", e.message()),
+        }
+    })
 }
 
 /// The list of integrators: each line a variant of [`Integrator`] and of
@@ -247,10 +258,9 @@ macro_rules! integrators {
         impl IntegratorParams {
             /// `kind`'s parameters from its own keys.
             fn parse(kind: IntegratorKind, own: toml::Table) -> Result<Self, String> {
-                let own = toml::Value::Table(own);
                 Ok(match kind {
                     $(IntegratorKind::$variant => IntegratorParams::$variant(
-                        <$ty as Configure>::Params::deserialize(own).map_err(field_error)?,
+                        parse_keys::<<$ty as Configure>::Params>(own)?,
                     ),)*
                 })
             }
