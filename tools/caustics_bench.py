@@ -77,6 +77,13 @@ def main():
     ap.add_argument("--out", default="bench-caustics")
     ap.add_argument("--prism", default=str(ROOT / "target" / "release" / "prism"))
     a = ap.parse_args()
+    # The plots need matplotlib and Pillow: say so before minutes of
+    # rendering, not after (pip install -r tools/bench-requirements.txt).
+    for module in ("matplotlib", "PIL"):
+        try:
+            __import__(module)
+        except ImportError:
+            sys.exit(f"caustics_bench.py needs {module}: pip install -r tools/bench-requirements.txt")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     kinds = a.integrators.split(",")
