@@ -89,6 +89,9 @@ pub fn as_one_set(write: impl FnOnce() -> Result<()>) -> Result<()> {
         discard(&files);
         return Err(e);
     }
+    // Two commands writing the same names take turns: each moves its
+    // whole set while holding the folder's lock, so the sets never mix.
+    let _turn = files.first().and_then(|(_, path)| lock_folder(path));
     // A name that cannot take its file fails before anything moves.
     if let Some((_, taken)) = files.iter().find(|(_, path)| path.is_dir()) {
         discard(&files);
@@ -116,6 +119,20 @@ pub fn as_one_set(write: impl FnOnce() -> Result<()>) -> Result<()> {
         let _ = std::fs::remove_file(tmp);
     }
     Ok(())
+}
+
+/// An exclusive lock on the folder that holds `path` (flock on the
+/// folder itself: no lock file is left behind), held until the returned
+/// handle is dropped. None where the file system has no such locks: the
+/// set is then moved without one.
+fn lock_folder(path: &Path) -> Option<std::fs::File> {
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let handle = std::fs::File::open(folder).ok()?;
+    handle.lock().ok()?;
+    Some(handle)
 }
 
 fn temp_name(path: &Path) -> PathBuf {
