@@ -119,8 +119,9 @@ enum Command {
         /// 1m; plain numbers are seconds; at least 0.1 s).
         #[arg(long, value_name = "DURATION", value_parser = parse_duration, default_value = "5")]
         log_every: std::time::Duration,
-        /// Rewrite NAME.png (atomically) this often while rendering, after
-        /// the pass under way (10s, 1m; plain numbers are seconds).
+        /// Rewrite NAME.preview.png (atomically) this often while rendering,
+        /// after the pass under way (10s, 1m; plain numbers are seconds); it
+        /// goes when the render's files are written.
         #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
         preview_every: Option<std::time::Duration>,
         /// Stream the image to the tev HDR viewer at HOST:PORT (tev listens

@@ -445,3 +445,50 @@ fn concurrent_renders_to_one_name_leave_one_whole_set() {
         );
     }
 }
+
+/// With `--preview-every`, a SIGKILL left the new preview PNG beside the
+/// old EXRs (a mixed set). The preview has a name of its own now: the
+/// earlier set stays whole.
+#[test]
+fn a_killed_render_with_previews_leaves_the_earlier_set_whole() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("cb");
+    let args = [
+        "render",
+        "scenes/cornell-box.toml",
+        "-q",
+        "--resolution",
+        "64x48",
+    ];
+    let done = prism(
+        &[&args[..], &["--spp", "2", "-o", stem.to_str().unwrap()]].concat(),
+        root,
+    );
+    assert!(done.status.success());
+    let earlier = std::fs::read(stem.with_extension("png")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args(args)
+        .args([
+            "--spp",
+            "1000000",
+            "--preview-every",
+            "0.1",
+            "--seed",
+            "9",
+            "-o",
+        ])
+        .arg(&stem)
+        .current_dir(root)
+        .spawn()
+        .unwrap();
+    let preview = stem.with_extension("preview.png");
+    let start = std::time::Instant::now();
+    while !preview.exists() && start.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert!(preview.exists(), "no preview was written");
+    assert_eq!(std::fs::read(stem.with_extension("png")).unwrap(), earlier);
+}

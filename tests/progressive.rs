@@ -212,8 +212,9 @@ fn an_error_target_is_refused_for_splatting_integrators() {
     assert!(e.contains("per-pixel variances"), "{e}");
 }
 
-/// `--preview-every` rewrites the PNG while the render runs; a reader finds
-/// either no file yet or a whole, decodable picture, never half of one.
+/// `--preview-every` rewrites NAME.preview.png while the render runs; a
+/// reader finds either no file yet or a whole, decodable picture, never
+/// half of one; when the render's files are written, the preview goes.
 #[test]
 fn previews_appear_during_the_render_and_are_always_valid() {
     let dir = tempfile::tempdir().unwrap();
@@ -239,7 +240,7 @@ fn previews_appear_during_the_render_and_are_always_valid() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let png = stem.with_extension("png");
+    let png = stem.with_extension("preview.png");
     let mut seen = 0;
     while child.try_wait().unwrap().is_none() {
         if png.exists() {
@@ -251,6 +252,7 @@ fn previews_appear_during_the_render_and_are_always_valid() {
     }
     assert!(child.wait().unwrap().success());
     assert!(seen >= 5, "previews read during the render: {seen}");
+    assert!(!png.exists() && stem.with_extension("png").exists());
 }
 
 /// Adaptive sampling: samples go where the pilot's relative error is high,

@@ -48,7 +48,8 @@ pub struct RenderJob {
     pub target_error: Option<f64>,
     /// Progress line interval where stderr is not a terminal.
     pub log_every: Duration,
-    /// Rewrite NAME.png this often while rendering (`--preview-every`).
+    /// Rewrite NAME.preview.png this often while rendering
+    /// (`--preview-every`).
     pub preview_every: Option<Duration>,
     /// Stream the image to tev at HOST:PORT (`--display`).
     pub display: Option<String>,
@@ -232,7 +233,13 @@ fn report_stale_temporaries(stem: &Path) {
 fn pass_hooks(job: &RenderJob, stem: &Path, film: &FilmSettings) -> Option<PassHook> {
     let mut hooks: Vec<PassHook> = Vec::new();
     if let Some(every) = job.preview_every {
-        hooks.push(preview_writer(suffixed(stem, "png"), film.clone(), every));
+        // Its own name: a preview beside the earlier render's EXRs would
+        // mix two sets if the render never finished (SIGKILL).
+        hooks.push(preview_writer(
+            suffixed(stem, "preview.png"),
+            film.clone(),
+            every,
+        ));
     }
     if let Some(address) = &job.display {
         let name = stem
@@ -346,6 +353,8 @@ fn write_outputs(
     let exr = suffixed(stem, "exr");
     let png = suffixed(stem, "png");
     output::as_one_set(|| {
+        // The preview's work is done: it goes when the set is in place.
+        output::retire_in_set(&suffixed(stem, "preview.png"));
         output::write_film_exr(result, film, &exr)?;
         output::write_png(result, film, &png)?;
         if film.spectral_output {
