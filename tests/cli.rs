@@ -358,6 +358,8 @@ fn temporary_files_of_a_killed_render_are_cleaned_up_by_the_next_one() {
     let stale = [
         ".out.partial-999999999.exr",
         ".out.spectral.partial-999999999.exr",
+        ".out.preview.partial-999999999.png",
+        ".out.spectral.partial-999999999.retired",
     ];
     for name in stale {
         std::fs::write(dir.path().join(name), b"half a file").unwrap();

@@ -56,7 +56,8 @@ fn output_dir(stem: &Path) -> PathBuf {
 }
 
 /// Temporary files of earlier renders to `stem` (`.NAME.partial-PID.exr`,
-/// `.png`, `.spectral.exr`) whose process is gone (killed before it could
+/// `.png`, `.spectral.exr`, `.preview.png`, a retired `.spectral.…retired`)
+/// whose process is gone (killed before it could
 /// clean up): removed where the process table can be read (/proc), else
 /// only named. Returns each with whether it was removed.
 pub fn stale_temporaries(stem: &Path) -> Vec<(PathBuf, bool)> {
@@ -93,7 +94,10 @@ pub fn stale_temporaries(stem: &Path) -> Vec<(PathBuf, bool)> {
 /// of the render named `name` (see `film::output`'s temporary names).
 fn temporary_pid(file: &str, name: &str) -> Option<u32> {
     let rest = file.strip_prefix('.')?.strip_prefix(name)?;
-    let rest = rest.strip_prefix(".spectral").unwrap_or(rest);
+    let rest = rest
+        .strip_prefix(".spectral")
+        .or_else(|| rest.strip_prefix(".preview"))
+        .unwrap_or(rest);
     let (pid, ext) = rest.strip_prefix(".partial-")?.split_once('.')?;
     matches!(ext, "exr" | "png" | "retired").then_some(())?;
     pid.parse().ok()
