@@ -116,7 +116,7 @@ impl IntegratorSpec {
     fn parse(kind: IntegratorKind, table: toml::Table) -> Result<Self, String> {
         let common_keys = crate::schema::keys_of::<CommonParams>();
         for key in table.keys() {
-            if common_keys.contains(&key.as_str()) || kind.own_keys().contains(&key.as_str()) {
+            if kind.takes(key) {
                 continue;
             }
             let owners: Vec<String> = IntegratorKind::ALL
@@ -183,13 +183,21 @@ impl IntegratorSpec {
     /// Switches to another integrator (`--integrator`), dropping the keys
     /// that do not apply to it; returns their names.
     pub fn switch_to(&mut self, kind: IntegratorKind) -> Result<Vec<String>, String> {
-        let common_keys = crate::schema::keys_of::<CommonParams>();
-        let (kept, dropped): (toml::Table, toml::Table) =
-            self.table.clone().into_iter().partition(|(k, _)| {
-                common_keys.contains(&k.as_str()) || kind.own_keys().contains(&k.as_str())
-            });
+        let (kept, dropped): (toml::Table, toml::Table) = self
+            .table
+            .clone()
+            .into_iter()
+            .partition(|(k, _)| kind.takes(k));
         *self = Self::parse(kind, kept)?;
         Ok(dropped.into_iter().map(|(k, _)| k).collect())
+    }
+}
+
+impl IntegratorKind {
+    /// Whether its `[integrator]` table takes `key`: one every integrator
+    /// takes, or one of its own.
+    pub fn takes(self, key: &str) -> bool {
+        crate::schema::keys_of::<CommonParams>().contains(&key) || self.own_keys().contains(&key)
     }
 }
 

@@ -87,9 +87,12 @@ impl Loader {
     /// The Hosek–Wilkie sky dome and sun disc, each a light.
     fn sky(&self, sky: &SkySpec, scale: f32, file: &SceneFile) -> Result<Vec<Light>, SceneError> {
         // Large numbers in e-notation: 1e38, not 39 digits.
-        let num = |v: f32| match v.abs() >= 1e6 {
-            true => format!("{v:e}"),
-            false => format!("{v}"),
+        let num = |v: f32| {
+            if v.abs() >= 1e6 {
+                format!("{v:e}")
+            } else {
+                format!("{v}")
+            }
         };
         let in_range = |key: &str, v: f32, lo: f32, hi: f32, what: &str| {
             if (lo..=hi).contains(&v) {

@@ -124,7 +124,8 @@ fn table_at(lines: &[&str], index: usize) -> Option<(String, String)> {
     Some((format!("{table}[{before}]"), table))
 }
 
-/// The keys serde's "expected one of `a`, `b`" (or "expected `a`") names.
+/// The names serde's "expected one of `a`, `b`" (or "expected `a`") lists,
+/// on the line it starts.
 fn expected_keys(detail: &str) -> Vec<String> {
     let Some((_, expected)) = detail.split_once("expected") else {
         return Vec::new();
@@ -133,6 +134,7 @@ fn expected_keys(detail: &str) -> Vec<String> {
         .split('`')
         .skip(1)
         .step_by(2)
+        .take_while(|c| !c.contains('\n'))
         .map(str::to_string)
         .collect()
 }
@@ -154,23 +156,9 @@ pub(super) fn with_suggestion(message: String) -> String {
         return message;
     };
     let unknown = &rest[open + 1..open + 1 + close];
-    let Some(expected) = rest.find("expected") else {
-        return message;
-    };
-    let candidates: Vec<&str> = rest[expected..]
-        .split('`')
-        .skip(1)
-        .step_by(2)
-        .take_while(|c| !c.contains('\n'))
-        .collect();
-    let best = candidates
-        .iter()
-        .map(|c| {
-            (
-                edit_distance(&unknown.to_lowercase(), &c.to_lowercase()),
-                *c,
-            )
-        })
+    let best = expected_keys(rest)
+        .into_iter()
+        .map(|c| (edit_distance(&unknown.to_lowercase(), &c.to_lowercase()), c))
         .min();
     match best {
         Some((d, c)) if d > 0 && d <= 2.max(unknown.len() / 3) => {

@@ -233,9 +233,10 @@ impl Loader {
         if path.exists() {
             return Ok(path);
         }
-        let folder = match self.base.as_os_str().is_empty() {
-            true => Path::new("."),
-            false => self.base.as_path(),
+        let folder = if self.base.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            self.base.as_path()
         };
         Err(self.error(if rel.is_absolute() {
             format!("`{key}`: {} does not exist", rel.display())

@@ -283,7 +283,11 @@ fn check_mtl_values(text: &str, path: &Path) -> Result<Vec<(String, String)>, St
             "Ke" => (0.0, MAX_EMISSION, "0 is used"),
             "d" => (0.0, 1.0, "it is clamped to [0, 1] (1 where not a number)"),
             "Tr" => (0.0, 1.0, "it is clamped to [0, 1] (0 where not a number)"),
-            "Ni" => (1.0, 10.0, "the index is ignored (glass takes 1.5)"),
+            "Ni" => (
+                *IOR_RANGE.start(),
+                *IOR_RANGE.end(),
+                "the index is ignored (glass takes 1.5)",
+            ),
             "Ns" => (0.0, f32::MAX, "0 is used"),
             _ => continue,
         };
@@ -316,6 +320,12 @@ fn check_mtl_values(text: &str, path: &Path) -> Result<Vec<(String, String)>, St
     Ok(out)
 }
 
+/// The diffuse colour of a material without a usable `Kd` (as Blender).
+const DEFAULT_KD: f32 = 0.8;
+
+/// The indices of refraction `Ni` may give; others are ignored.
+const IOR_RANGE: std::ops::RangeInclusive<f32> = 1.0..=10.0;
+
 /// The brightest MTL emission accepted (the scene file's limit).
 const MAX_EMISSION: f32 = 1e30;
 
@@ -332,7 +342,7 @@ fn material(
             .filter(|c| c.is_finite())
             .map(|c| c.max(Vec3::ZERO))
     };
-    let kd = rgb(m.diffuse).unwrap_or(Vec3::splat(0.8));
+    let kd = rgb(m.diffuse).unwrap_or(Vec3::splat(DEFAULT_KD));
     let ks = rgb(m.specular).unwrap_or(Vec3::ZERO);
     let ke = rgb(m.emissive).unwrap_or(Vec3::ZERO);
     // Some files (the Embree Cornell Box) write their lamps as a bright
@@ -343,9 +353,7 @@ fn material(
             m.name
         ));
     }
-    let ni = m
-        .optical_density
-        .filter(|n| n.is_finite() && *n >= 1.0 && *n <= 10.0);
+    let ni = m.optical_density.filter(|n| IOR_RANGE.contains(n));
     let roughness = roughness_from_phong(m.shininess.filter(|s| s.is_finite()).unwrap_or(0.0));
     let illum = m
         .illumination_model
