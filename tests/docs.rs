@@ -16,6 +16,8 @@ use prism::load::format::{
 };
 use prism::schema::keys_of;
 
+use crate::common::{files_under, ticked};
+
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
@@ -71,12 +73,7 @@ fn rows(text: &str) -> Vec<(Vec<String>, String)> {
                     .map(|k| (k, cells.iter().position(|c| *c == "applies to")));
             }
             Some((key, applies)) => {
-                let names = cells[key]
-                    .split('`')
-                    .skip(1)
-                    .step_by(2)
-                    .map(str::to_string)
-                    .collect();
+                let names = ticked(cells[key]);
                 out.push((names, applies.map_or("", |a| cells[a]).to_string()));
             }
         }
@@ -234,6 +231,14 @@ fn the_scene_reference_documents_every_key_the_parser_takes_and_no_other() {
     check_materials(materials);
 }
 
+/// The names a parser error lists after "expected one of", on that line.
+fn expected_one_of(error: &str) -> BTreeSet<String> {
+    let (_, list) = error
+        .split_once("expected one of")
+        .unwrap_or_else(|| panic!("{error}"));
+    ticked(list.lines().next().unwrap()).into_iter().collect()
+}
+
 /// Material types are variants with keys of their own: the parser's keys
 /// of each are read from its error for an unknown key.
 fn check_materials(text: &str) {
@@ -246,19 +251,7 @@ fn check_materials(text: &str) {
             Ok(_) => panic!("{kind} took `not_a_key`"),
             Err(e) => e.to_string(),
         };
-        let expected = e
-            .split_once("expected one of")
-            .unwrap_or_else(|| panic!("{e}"))
-            .1;
-        expected
-            .lines()
-            .next()
-            .unwrap()
-            .split('`')
-            .skip(1)
-            .step_by(2)
-            .map(str::to_string)
-            .collect()
+        expected_one_of(&e)
     };
     // The rows by type: a row with a type in its first cell starts a type.
     let mut documented: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
@@ -286,7 +279,7 @@ fn check_materials(text: &str) {
         if kind.is_empty() {
             continue;
         }
-        let keys = cells[1].split('`').skip(1).step_by(2).map(str::to_string);
+        let keys = ticked(cells[1]);
         documented.entry(kind.clone()).or_default().extend(keys);
     }
     assert!(documented.len() >= 4, "{documented:?}");
@@ -304,17 +297,8 @@ fn check_materials(text: &str) {
         .err()
         .unwrap()
         .to_string();
-    let types: BTreeSet<String> = e
-        .split_once("expected one of")
-        .unwrap_or_else(|| panic!("{e}"))
-        .1
-        .split('`')
-        .skip(1)
-        .step_by(2)
-        .map(str::to_string)
-        .collect();
     assert_eq!(
-        types,
+        expected_one_of(&e),
         documented.keys().cloned().collect(),
         "material types: the parser's against the reference's"
     );
@@ -380,23 +364,10 @@ fn the_readme_is_a_short_guide_with_the_two_set_up_commands() {
     assert!(readme.contains("\ntools/test.sh\n"));
 }
 
-fn files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            out.extend(files(&path));
-        } else {
-            out.push(path);
-        }
-    }
-    out
-}
-
 #[test]
 fn every_picture_and_table_under_docs_is_linked_from_a_page() {
     let docs = root().join("docs");
-    let pages: Vec<(PathBuf, String)> = files(&docs)
+    let pages: Vec<(PathBuf, String)> = files_under(&docs)
         .into_iter()
         .chain([root().join("README.md"), root().join("ARCHITECTURE.md")])
         .filter(|p| p.extension().is_some_and(|e| e == "md"))
@@ -411,7 +382,7 @@ fn every_picture_and_table_under_docs_is_linked_from_a_page() {
         .flat_map(|(_, text)| text.split(|c: char| c.is_whitespace() || "`()[]:;\"'".contains(c)))
         .filter(|t| t.contains('.'))
         .collect();
-    for file in files(&docs) {
+    for file in files_under(&docs) {
         if file.extension().is_some_and(|e| e == "md") {
             continue;
         }
@@ -465,7 +436,7 @@ fn matches(pattern: &str, name: &str) -> bool {
 /// each a script.
 fn runnable_blocks() -> Vec<(String, String)> {
     let mut out = Vec::new();
-    let pages = files(&root().join("docs"))
+    let pages = files_under(&root().join("docs"))
         .into_iter()
         .chain([root().join("README.md")])
         .filter(|p| p.extension().is_some_and(|e| e == "md"));

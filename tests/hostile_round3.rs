@@ -18,6 +18,19 @@ fn prism(args: &[&str], cwd: &Path) -> Output {
         .unwrap()
 }
 
+/// `prism render` of the Cornell Box to `stem`, quietly, with `extra` flags.
+fn render_cornell(stem: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "render",
+        "scenes/cornell-box.toml",
+        "-q",
+        "-o",
+        stem.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    prism(&args, Path::new(env!("CARGO_MANIFEST_DIR")))
+}
+
 fn refused(text: &str) -> String {
     match load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))) {
         Ok(_) => panic!("loaded:\n{text}"),
@@ -174,37 +187,13 @@ fn adaptive_renders_are_not_parts() {
         String::from_utf8_lossy(&out.stderr)
     );
     let stem = dir.path().join("adaptive");
-    let out = prism(
-        &[
-            "render",
-            "scenes/cornell-box.toml",
-            "--adaptive",
-            "--spp",
-            "8",
-            "--resolution",
-            "24x16",
-            "-q",
-            "-o",
-            stem.to_str().unwrap(),
-        ],
-        root,
+    let out = render_cornell(
+        &stem,
+        &["--adaptive", "--spp", "8", "--resolution", "24x16"],
     );
     assert!(out.status.success());
     let part = dir.path().join("part");
-    let out = prism(
-        &[
-            "render",
-            "scenes/cornell-box.toml",
-            "--samples",
-            "8..16",
-            "--resolution",
-            "24x16",
-            "-q",
-            "-o",
-            part.to_str().unwrap(),
-        ],
-        root,
-    );
+    let out = render_cornell(&part, &["--samples", "8..16", "--resolution", "24x16"]);
     assert!(out.status.success());
     let merged = dir.path().join("merged");
     let out = prism(
@@ -229,25 +218,8 @@ fn a_merge_replaces_its_files_as_one_set_or_none() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let part = dir.path().join("part");
-    let args = |stem: &Path| {
-        vec![
-            "render".to_string(),
-            "scenes/cornell-box.toml".into(),
-            "--samples".into(),
-            "0..2".into(),
-            "--resolution".into(),
-            "24x16".into(),
-            "-q".into(),
-            "-o".into(),
-            stem.display().to_string(),
-        ]
-    };
-    let a: Vec<String> = args(&part);
-    assert!(
-        prism(&a.iter().map(String::as_str).collect::<Vec<_>>(), root)
-            .status
-            .success()
-    );
+    let out = render_cornell(&part, &["--samples", "0..2", "--resolution", "24x16"]);
+    assert!(out.status.success());
     let out_stem = dir.path().join("out");
     std::fs::write(out_stem.with_extension("exr"), b"old exr").unwrap();
     std::fs::write(out_stem.with_extension("spectral.exr"), b"old spectral").unwrap();
@@ -282,23 +254,14 @@ fn a_merge_replaces_its_files_as_one_set_or_none() {
 /// the new NAME.exr and NAME.png.
 #[test]
 fn no_spectral_over_an_earlier_render_takes_its_spectral_file_away() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let stem = dir.path().join("r");
     let render = |extra: &[&str]| {
-        let mut args = vec![
-            "render",
-            "scenes/cornell-box.toml",
-            "--spp",
-            "2",
-            "--resolution",
-            "24x16",
-            "-q",
-            "-o",
-            stem.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        assert!(prism(&args, root).status.success());
+        let out = render_cornell(
+            &stem,
+            &[&["--spp", "2", "--resolution", "24x16"], extra].concat(),
+        );
+        assert!(out.status.success());
     };
     render(&[]);
     assert!(stem.with_extension("spectral.exr").exists());
@@ -461,10 +424,7 @@ fn a_killed_render_with_previews_leaves_the_earlier_set_whole() {
         "--resolution",
         "64x48",
     ];
-    let done = prism(
-        &[&args[..], &["--spp", "2", "-o", stem.to_str().unwrap()]].concat(),
-        root,
-    );
+    let done = render_cornell(&stem, &["--resolution", "64x48", "--spp", "2"]);
     assert!(done.status.success());
     let earlier = std::fs::read(stem.with_extension("png")).unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_prism"))

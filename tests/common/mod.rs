@@ -17,6 +17,29 @@ use prism::sampler::Sampler;
 
 use prism::spectrum::{SampledSpectrum, SampledWavelengths};
 
+/// Every file below `dir`, folders walked.
+pub fn files_under(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            out.extend(files_under(&path));
+        } else {
+            out.push(path);
+        }
+    }
+    out
+}
+
+/// The `backticked` words of a text (a table cell, a message's list).
+pub fn ticked(text: &str) -> Vec<String> {
+    text.split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect()
+}
+
 pub fn scene(text: &str) -> Loaded {
     load_str(text, Path::new(env!("CARGO_MANIFEST_DIR"))).unwrap_or_else(|e| panic!("{e}"))
 }
