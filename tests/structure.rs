@@ -6,6 +6,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use crate::common::{files_under, ticked};
+
 const MAX_FUNCTION_LINES: usize = 120;
 const MAX_FILE_LINES: usize = 600;
 
@@ -21,15 +23,6 @@ fn section(title: &str) -> Vec<String> {
         .skip_while(|l| l.trim() != heading)
         .skip(1)
         .take_while(|l| !l.starts_with("## "))
-        .map(str::to_string)
-        .collect()
-}
-
-/// The `backticked` words of a table cell.
-fn ticked(cell: &str) -> Vec<String> {
-    cell.split('`')
-        .skip(1)
-        .step_by(2)
         .map(str::to_string)
         .collect()
 }
@@ -54,17 +47,10 @@ fn layers() -> BTreeMap<String, u32> {
 }
 
 fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            out.extend(rust_files(&path));
-        } else if path.extension().is_some_and(|e| e == "rs") {
-            out.push(path);
-        }
-    }
-    out.sort();
-    out
+    files_under(dir)
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "rs"))
+        .collect()
 }
 
 /// The top-level module a file of src/ belongs to (None for the binary's
@@ -235,4 +221,29 @@ fn the_function_scanner_measures_a_known_function() {
         functions(text),
         [("a".to_string(), 3), ("b".to_string(), 3)]
     );
+}
+
+/// The integration tests are one crate (`autotests = false`): a file of
+/// tests/ that tests/suite.rs does not name as a module would never be
+/// compiled or run.
+#[test]
+fn every_test_file_is_a_module_of_the_suite() {
+    let suite = std::fs::read_to_string(root().join("tests/suite.rs")).unwrap();
+    let declared: BTreeSet<String> = suite
+        .lines()
+        .filter_map(|l| l.strip_prefix("mod ")?.strip_suffix(';'))
+        .map(str::to_string)
+        .collect();
+    for file in std::fs::read_dir(root().join("tests")).unwrap() {
+        let path = file.unwrap().path();
+        let Some(stem) = path.file_stem().and_then(|s| s.to_str()) else {
+            continue;
+        };
+        if path.extension().is_some_and(|e| e == "rs") && stem != "suite" {
+            assert!(
+                declared.contains(stem),
+                "tests/{stem}.rs is not a module of tests/suite.rs: it would never run"
+            );
+        }
+    }
 }
