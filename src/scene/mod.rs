@@ -3,20 +3,23 @@
 //! rendered (integrator, film) is not part of it: `crate::load` returns
 //! those apart, so one scene renders under any settings.
 
+mod geometry;
 pub mod mesh;
 
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
+pub use geometry::SceneGeometry;
+use geometry::{TriangleShading, HAS_NORMALS, HAS_TANGENTS, HAS_UVS, NO_LIGHT};
 pub use mesh::Mesh;
 
 use crate::camera::Camera;
 use crate::geometry::offset::offset_ray_origin;
-use crate::geometry::sphere::{Sphere, SphereHit, SphereSet};
+use crate::geometry::sphere::{Sphere, SphereHit};
 use crate::geometry::{gamma, triangle, Aabb, Bvh, Ray};
 use crate::light::LightSource;
-use crate::light::{AreaLight, Emitter, Light, LightSet, SceneSphere, SphereLight};
+use crate::light::{Light, LightSet, SceneSphere};
 use crate::material::{Cutout, Material};
 use crate::medium::Medium;
 use crate::spectrum::{cie, Spectrum, WavelengthDistribution};
@@ -46,40 +49,6 @@ pub struct SphereInstance {
     pub emission: Option<Emission>,
     /// The front face (normal, emission) is the inside.
     pub inward: bool,
-}
-
-/// What shading needs of a sphere.
-#[derive(Clone, Copy, Debug)]
-struct SphereShading {
-    material: u32,
-    /// Index into the light set, or `NO_LIGHT`.
-    light: u32,
-    inward: bool,
-}
-
-/// Per-triangle data that shading needs: where its vertices' attributes
-/// are in the scene's attribute arrays, and which of them it has.
-#[derive(Clone, Copy, Debug)]
-struct TriangleShading {
-    vertices: [u32; 3],
-    attributes: u8,
-    material: u32,
-    /// Index into the light set, or `NO_LIGHT`.
-    light: u32,
-}
-
-const NO_LIGHT: u32 = u32::MAX;
-const HAS_NORMALS: u8 = 1;
-const HAS_UVS: u8 = 2;
-const HAS_TANGENTS: u8 = 4;
-
-/// Vertex attributes of every mesh, concatenated; a triangle's entries are
-/// only meaningful where its attribute flags say so.
-#[derive(Default)]
-struct VertexAttributes {
-    normals: Vec<Vec3>,
-    uvs: Vec<Vec2>,
-    tangents: Vec<Vec4>,
 }
 
 /// A ray's closest surface hit.
@@ -112,24 +81,20 @@ pub struct Scene {
     pub wavelengths: WavelengthDistribution,
     /// The bounding sphere of the geometry, as lights at infinity see it.
     pub sphere: SceneSphere,
-    bvh: Bvh,
-    /// Exact spheres, in a hierarchy of their own.
-    spheres: SphereSet,
-    sphere_shading: Vec<SphereShading>,
+    /// Triangles, spheres and their hierarchies: shared by scenes that
+    /// differ only in camera, materials or lights (`Scene::assemble`).
+    geometry: Arc<SceneGeometry>,
     /// Some material bounds a volume (paths then track the IOR stack).
     has_dielectrics: bool,
     /// The medium around everything (the stack empty), if any.
     pub world_medium: Option<Medium>,
     /// Some volume, or the world, holds a participating medium.
     has_media: bool,
-    /// Some medium scatters (paths then sample distances).
+    /// Some medium scatters (paths then sample free flights).
     has_scattering: bool,
     /// Per material, where its surfaces are absent; empty when no
     /// material has cut-outs (intersection then skips the test).
     cutouts: Vec<Option<Arc<Cutout>>>,
-    triangles: Vec<[Vec3; 3]>,
-    shading: Vec<TriangleShading>,
-    attributes: VertexAttributes,
     /// Triangles dropped at build because they had no area.
     pub degenerate_triangles: usize,
     /// Bytes held by decoded images (textures, environment maps).
@@ -176,54 +141,6 @@ fn wavelength_distribution(lights: &LightSet) -> WavelengthDistribution {
     )
 }
 
-/// The sphere around `bounds` (none for an empty scene).
-fn bounding_sphere(bounds: Aabb, empty: bool) -> SceneSphere {
-    if empty {
-        return SceneSphere::default();
-    }
-    let centre = (bounds.min + bounds.max) * 0.5;
-    SceneSphere {
-        centre,
-        radius: (bounds.max - centre).length(),
-    }
-}
-
-/// The spheres' hierarchy and shading, with a light added to `lights` for
-/// each emitting sphere.
-fn sphere_lights(
-    spheres: &[SphereInstance],
-    lights: &mut Vec<Light>,
-) -> (SphereSet, Vec<SphereShading>) {
-    let set = SphereSet::new(&spheres.iter().map(|s| s.sphere).collect::<Vec<_>>());
-    let shading = spheres
-        .iter()
-        .map(|s| {
-            let light = match &s.emission {
-                Some(e) => {
-                    let emitter = Arc::new(Emitter {
-                        spectrum: e.spectrum.clone(),
-                        texture: e.texture.clone(),
-                    });
-                    lights.push(Light::Sphere(SphereLight::new(
-                        s.sphere,
-                        emitter,
-                        e.two_sided,
-                        s.inward,
-                    )));
-                    lights.len() as u32 - 1
-                }
-                None => NO_LIGHT,
-            };
-            SphereShading {
-                material: s.material,
-                light,
-                inward: s.inward,
-            }
-        })
-        .collect();
-    (set, shading)
-}
-
 static NEXT_SCENE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// Peak bytes a triangle costs while the scene is built: the imported mesh,
@@ -233,9 +150,8 @@ static NEXT_SCENE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU6
 pub const BUILD_BYTES_PER_TRIANGLE: u64 = 320;
 
 impl Scene {
-    /// Assembles the runtime scene: drops degenerate triangles, builds the
-    /// BVH, stores triangles in its order, collects the area lights and adds
-    /// the other lights (which learn the scene's bounds).
+    /// Assembles the runtime scene: builds its geometry
+    /// ([`SceneGeometry::build`]) and adds the other lights.
     pub fn build(
         camera: Camera,
         materials: Vec<Material>,
@@ -243,86 +159,21 @@ impl Scene {
         spheres: Vec<SphereInstance>,
         other_lights: Vec<Light>,
     ) -> Scene {
-        let mut triangles = Vec::new();
-        let mut shading = Vec::new();
-        let mut emitters: Vec<Option<u32>> = Vec::new();
-        let mut light_emitters = Vec::new();
-        let mut attributes = VertexAttributes::default();
-        let mut degenerate = 0;
-        for shape in shapes {
-            let emission = shape.emission.map(|e| {
-                let emitter = Emitter {
-                    spectrum: e.spectrum,
-                    texture: e.texture,
-                };
-                light_emitters.push((Arc::new(emitter), e.two_sided));
-                light_emitters.len() as u32 - 1
-            });
-            let mesh = shape.mesh;
-            // Attribute arrays grow together so one base index serves all.
-            let base = attributes.normals.len() as u32;
-            let n = mesh.positions.len();
-            let mut flags = 0;
-            match &mesh.normals {
-                Some(v) => {
-                    flags |= HAS_NORMALS;
-                    attributes.normals.extend_from_slice(v);
-                }
-                None => attributes.normals.resize(base as usize + n, Vec3::ZERO),
-            }
-            match &mesh.uvs {
-                Some(v) => {
-                    flags |= HAS_UVS;
-                    attributes.uvs.extend_from_slice(v);
-                }
-                None => attributes.uvs.resize(base as usize + n, Vec2::ZERO),
-            }
-            match &mesh.tangents {
-                Some(v) => {
-                    flags |= HAS_TANGENTS;
-                    attributes.tangents.extend_from_slice(v);
-                }
-                None => attributes.tangents.resize(base as usize + n, Vec4::ZERO),
-            }
-            for idx in &mesh.indices {
-                let p = idx.map(|i| mesh.positions[i as usize]);
-                if !(triangle::area(&p) > 0.0) {
-                    degenerate += 1;
-                    continue;
-                }
-                triangles.push(p);
-                shading.push(TriangleShading {
-                    vertices: idx.map(|i| base + i),
-                    attributes: flags,
-                    material: shape.material,
-                    light: NO_LIGHT,
-                });
-                emitters.push(emission);
-            }
-        }
-        let (bvh, order) = Bvh::build(&triangles);
-        let triangles: Vec<[Vec3; 3]> = order.iter().map(|&i| triangles[i as usize]).collect();
-        let mut shading: Vec<TriangleShading> =
-            order.iter().map(|&i| shading[i as usize]).collect();
-        let mut lights = Vec::new();
-        for (prim, &original) in order.iter().enumerate() {
-            if let Some(e) = emitters[original as usize] {
-                shading[prim].light = lights.len() as u32;
-                let info = &shading[prim];
-                let uvs = (info.attributes & HAS_UVS != 0)
-                    .then(|| info.vertices.map(|v| attributes.uvs[v as usize]));
-                let (emitter, two_sided) = &light_emitters[e as usize];
-                lights.push(Light::Area(AreaLight::new(
-                    triangles[prim],
-                    uvs,
-                    emitter.clone(),
-                    *two_sided,
-                )));
-            }
-        }
-        let (sphere_set, sphere_shading) = sphere_lights(&spheres, &mut lights);
-        let empty = triangles.is_empty() && sphere_set.is_empty();
-        let sphere = bounding_sphere(bvh.bounds().union(sphere_set.bounds()), empty);
+        let geometry = Arc::new(SceneGeometry::build(shapes, spheres));
+        Scene::assemble(camera, materials, geometry, other_lights)
+    }
+
+    /// The runtime scene of built geometry (perhaps another scene's) with
+    /// these camera, materials and other lights (which learn the scene's
+    /// bounds). The geometry's material indices must fit `materials`.
+    pub fn assemble(
+        camera: Camera,
+        materials: Vec<Material>,
+        geometry: Arc<SceneGeometry>,
+        other_lights: Vec<Light>,
+    ) -> Scene {
+        let sphere = geometry.sphere;
+        let mut lights = geometry.surface_lights.clone();
         lights.extend(
             other_lights
                 .into_iter()
@@ -343,27 +194,33 @@ impl Scene {
             materials,
             lights,
             sphere,
-            bvh,
-            spheres: sphere_set,
-            sphere_shading,
-            triangles,
-            shading,
-            attributes,
-            degenerate_triangles: degenerate,
+            degenerate_triangles: geometry.degenerate_triangles,
+            geometry,
             image_bytes: 0,
         }
     }
 
+    /// The geometry, to share with a scene that differs in other parts.
+    pub fn geometry(&self) -> &Arc<SceneGeometry> {
+        &self.geometry
+    }
+}
+
+impl Scene {
     /// The bytes the scene holds: geometry, BVH, lights and images.
     pub fn memory_bytes(&self) -> u64 {
         let bytes = |n: usize, each: usize| (n * each) as u64;
-        bytes(self.triangles.len(), std::mem::size_of::<[Vec3; 3]>())
-            + bytes(self.shading.len(), std::mem::size_of::<TriangleShading>())
-            + bytes(self.attributes.normals.len(), 12)
-            + bytes(self.attributes.uvs.len(), 8)
-            + bytes(self.attributes.tangents.len(), 16)
-            + self.bvh.size_bytes() as u64
-            + self.spheres.size_bytes() as u64
+        bytes(
+            self.geometry.triangles.len(),
+            std::mem::size_of::<[Vec3; 3]>(),
+        ) + bytes(
+            self.geometry.shading.len(),
+            std::mem::size_of::<TriangleShading>(),
+        ) + bytes(self.geometry.attributes.normals.len(), 12)
+            + bytes(self.geometry.attributes.uvs.len(), 8)
+            + bytes(self.geometry.attributes.tangents.len(), 16)
+            + self.geometry.bvh.size_bytes() as u64
+            + self.geometry.spheres.size_bytes() as u64
             + bytes(self.lights.len(), std::mem::size_of::<Light>() + 16)
             + self.image_bytes
     }
@@ -398,7 +255,7 @@ impl Scene {
             .collect();
         // Emissive triangles of cut-out materials emit only where present.
         let mut lights = std::mem::take(&mut self.lights).into_lights();
-        for info in &self.shading {
+        for info in &self.geometry.shading {
             if let (Some(c), Some(Light::Area(light))) = (
                 &cutouts[info.material as usize],
                 lights.get_mut(info.light as usize),
@@ -433,26 +290,29 @@ impl Scene {
     }
 
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.geometry.triangles.len()
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.bvh.bounds().union(self.spheres.bounds())
+        self.geometry
+            .bvh
+            .bounds()
+            .union(self.geometry.spheres.bounds())
     }
 
     pub fn bvh(&self) -> &Bvh {
-        &self.bvh
+        &self.geometry.bvh
     }
 
     pub fn triangle(&self, prim: u32) -> &[Vec3; 3] {
-        &self.triangles[prim as usize]
+        &self.geometry.triangles[prim as usize]
     }
 
     /// The closest hit as a triangle index (BVH order) with distance and
     /// barycentrics, without the shading data: the query Embree's
     /// `rtcIntersect1` answers, for comparing traversal alone.
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, triangle::TriangleHit)> {
-        self.bvh.intersect(ray)
+        self.geometry.bvh.intersect(ray)
     }
 
     /// The closest surface along `ray`, passing where cut-outs leave a
@@ -484,23 +344,23 @@ impl Scene {
     }
 
     fn closest_surface(&self, ray: &Ray) -> Option<SurfaceHit> {
-        let triangle = self.bvh.intersect(ray);
-        if !self.spheres.is_empty() {
+        let triangle = self.geometry.bvh.intersect(ray);
+        if !self.geometry.spheres.is_empty() {
             let t_max = triangle.as_ref().map_or(ray.t_max, |(_, h)| h.t);
-            if let Some((k, hit)) = self.spheres.intersect(ray, t_max) {
+            if let Some((k, hit)) = self.geometry.spheres.intersect(ray, t_max) {
                 return Some(self.sphere_surface(k, &hit));
             }
         }
         let (prim, hit) = triangle?;
-        let tri = &self.triangles[prim as usize];
-        let info = &self.shading[prim as usize];
+        let tri = &self.geometry.triangles[prim as usize];
+        let info = &self.geometry.shading[prim as usize];
         let [b0, b1, b2] = hit.b;
         // The hit point from barycentrics is more accurate than o + t·d.
         let p = tri[0] * b0 + tri[1] * b1 + tri[2] * b2;
         let p_err = gamma(7) * ((tri[0] * b0).abs() + (tri[1] * b1).abs() + (tri[2] * b2).abs());
         let ng = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
         let [v0, v1, v2] = info.vertices.map(|v| v as usize);
-        let a = &self.attributes;
+        let a = &self.geometry.attributes;
         let mut ns = ng;
         if info.attributes & HAS_NORMALS != 0 {
             let s = a.normals[v0] * b0 + a.normals[v1] * b1 + a.normals[v2] * b2;
@@ -528,7 +388,7 @@ impl Scene {
 
     /// The surface where sphere `k` is hit: its normals face the front.
     fn sphere_surface(&self, k: u32, hit: &SphereHit) -> SurfaceHit {
-        let info = &self.sphere_shading[k as usize];
+        let info = &self.geometry.sphere_shading[k as usize];
         let (n, sign) = if info.inward {
             (-hit.n, -1.0)
         } else {
@@ -554,17 +414,19 @@ impl Scene {
 
     /// Texture coordinates on triangle `prim` at barycentrics (b1, b2).
     pub fn uv_at(&self, prim: u32, b: [f32; 2]) -> Vec2 {
-        let info = &self.shading[prim as usize];
+        let info = &self.geometry.shading[prim as usize];
         if info.attributes & HAS_UVS == 0 {
             return Vec2::ZERO;
         }
-        let uv = info.vertices.map(|v| self.attributes.uvs[v as usize]);
+        let uv = info
+            .vertices
+            .map(|v| self.geometry.attributes.uvs[v as usize]);
         uv[0] * (1.0 - b[0] - b[1]) + uv[1] * b[0] + uv[2] * b[1]
     }
 
     pub fn occluded(&self, ray: &Ray) -> bool {
         if self.cutouts.is_empty() {
-            self.bvh.occluded(ray) || self.spheres.occluded(ray)
+            self.geometry.bvh.occluded(ray) || self.geometry.spheres.occluded(ray)
         } else {
             self.intersect(ray).is_some()
         }

@@ -1,0 +1,209 @@
+//! A scene's geometry: triangles in BVH order with their shading data,
+//! exact spheres in a hierarchy of their own, and the lights their emission
+//! makes. Scenes that differ only in camera, materials or other lights
+//! share one (`Scene::assemble`).
+
+use std::sync::Arc;
+
+use glam::{Vec2, Vec3, Vec4};
+
+use super::{ShapeInstance, SphereInstance};
+use crate::geometry::sphere::SphereSet;
+use crate::geometry::{triangle, Aabb, Bvh};
+use crate::light::{AreaLight, Emitter, Light, SceneSphere, SphereLight};
+
+/// What shading needs of a sphere.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SphereShading {
+    pub(super) material: u32,
+    /// Index into the light set, or `NO_LIGHT`.
+    pub(super) light: u32,
+    pub(super) inward: bool,
+}
+
+/// Per-triangle data that shading needs: where its vertices' attributes
+/// are in the scene's attribute arrays, and which of them it has.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct TriangleShading {
+    pub(super) vertices: [u32; 3],
+    pub(super) attributes: u8,
+    pub(super) material: u32,
+    /// Index into the light set, or `NO_LIGHT`.
+    pub(super) light: u32,
+}
+
+pub(super) const NO_LIGHT: u32 = u32::MAX;
+pub(super) const HAS_NORMALS: u8 = 1;
+pub(super) const HAS_UVS: u8 = 2;
+pub(super) const HAS_TANGENTS: u8 = 4;
+
+/// Vertex attributes of every mesh, concatenated; a triangle's entries are
+/// only meaningful where its attribute flags say so.
+#[derive(Default)]
+pub(super) struct VertexAttributes {
+    pub(super) normals: Vec<Vec3>,
+    pub(super) uvs: Vec<Vec2>,
+    pub(super) tangents: Vec<Vec4>,
+}
+
+/// A scene's shapes as the renderer intersects them: triangles in BVH
+/// order with their shading data, exact spheres, and the lights their
+/// emission makes. Building it (the BVH) is the costly part of a scene.
+pub struct SceneGeometry {
+    pub(super) bvh: Bvh,
+    /// Exact spheres, in a hierarchy of their own.
+    pub(super) spheres: SphereSet,
+    pub(super) sphere_shading: Vec<SphereShading>,
+    pub(super) triangles: Vec<[Vec3; 3]>,
+    pub(super) shading: Vec<TriangleShading>,
+    pub(super) attributes: VertexAttributes,
+    /// The area and sphere lights, in the order the shading data index.
+    pub(super) surface_lights: Vec<Light>,
+    pub(super) sphere: SceneSphere,
+    pub(super) degenerate_triangles: usize,
+}
+
+impl SceneGeometry {
+    /// Drops degenerate triangles, builds the BVH, stores triangles in its
+    /// order and collects the area and sphere lights.
+    pub fn build(shapes: Vec<ShapeInstance>, spheres: Vec<SphereInstance>) -> SceneGeometry {
+        let mut triangles = Vec::new();
+        let mut shading = Vec::new();
+        let mut emitters: Vec<Option<u32>> = Vec::new();
+        let mut light_emitters = Vec::new();
+        let mut attributes = VertexAttributes::default();
+        let mut degenerate = 0;
+        for shape in shapes {
+            let emission = shape.emission.map(|e| {
+                let emitter = Emitter {
+                    spectrum: e.spectrum,
+                    texture: e.texture,
+                };
+                light_emitters.push((Arc::new(emitter), e.two_sided));
+                light_emitters.len() as u32 - 1
+            });
+            let mesh = shape.mesh;
+            // Attribute arrays grow together so one base index serves all.
+            let base = attributes.normals.len() as u32;
+            let n = mesh.positions.len();
+            let mut flags = 0;
+            match &mesh.normals {
+                Some(v) => {
+                    flags |= HAS_NORMALS;
+                    attributes.normals.extend_from_slice(v);
+                }
+                None => attributes.normals.resize(base as usize + n, Vec3::ZERO),
+            }
+            match &mesh.uvs {
+                Some(v) => {
+                    flags |= HAS_UVS;
+                    attributes.uvs.extend_from_slice(v);
+                }
+                None => attributes.uvs.resize(base as usize + n, Vec2::ZERO),
+            }
+            match &mesh.tangents {
+                Some(v) => {
+                    flags |= HAS_TANGENTS;
+                    attributes.tangents.extend_from_slice(v);
+                }
+                None => attributes.tangents.resize(base as usize + n, Vec4::ZERO),
+            }
+            for idx in &mesh.indices {
+                let p = idx.map(|i| mesh.positions[i as usize]);
+                if !(triangle::area(&p) > 0.0) {
+                    degenerate += 1;
+                    continue;
+                }
+                triangles.push(p);
+                shading.push(TriangleShading {
+                    vertices: idx.map(|i| base + i),
+                    attributes: flags,
+                    material: shape.material,
+                    light: NO_LIGHT,
+                });
+                emitters.push(emission);
+            }
+        }
+        let (bvh, order) = Bvh::build(&triangles);
+        let triangles: Vec<[Vec3; 3]> = order.iter().map(|&i| triangles[i as usize]).collect();
+        let mut shading: Vec<TriangleShading> =
+            order.iter().map(|&i| shading[i as usize]).collect();
+        let mut lights = Vec::new();
+        for (prim, &original) in order.iter().enumerate() {
+            if let Some(e) = emitters[original as usize] {
+                shading[prim].light = lights.len() as u32;
+                let info = &shading[prim];
+                let uvs = (info.attributes & HAS_UVS != 0)
+                    .then(|| info.vertices.map(|v| attributes.uvs[v as usize]));
+                let (emitter, two_sided) = &light_emitters[e as usize];
+                lights.push(Light::Area(AreaLight::new(
+                    triangles[prim],
+                    uvs,
+                    emitter.clone(),
+                    *two_sided,
+                )));
+            }
+        }
+        let (sphere_set, sphere_shading) = sphere_lights(&spheres, &mut lights);
+        let empty = triangles.is_empty() && sphere_set.is_empty();
+        let sphere = bounding_sphere(bvh.bounds().union(sphere_set.bounds()), empty);
+        SceneGeometry {
+            bvh,
+            spheres: sphere_set,
+            sphere_shading,
+            triangles,
+            shading,
+            attributes,
+            surface_lights: lights,
+            sphere,
+            degenerate_triangles: degenerate,
+        }
+    }
+}
+/// The sphere around `bounds` (none for an empty scene).
+fn bounding_sphere(bounds: Aabb, empty: bool) -> SceneSphere {
+    if empty {
+        return SceneSphere::default();
+    }
+    let centre = (bounds.min + bounds.max) * 0.5;
+    SceneSphere {
+        centre,
+        radius: (bounds.max - centre).length(),
+    }
+}
+
+/// The spheres' hierarchy and shading, with a light added to `lights` for
+/// each emitting sphere.
+fn sphere_lights(
+    spheres: &[SphereInstance],
+    lights: &mut Vec<Light>,
+) -> (SphereSet, Vec<SphereShading>) {
+    let set = SphereSet::new(&spheres.iter().map(|s| s.sphere).collect::<Vec<_>>());
+    let shading = spheres
+        .iter()
+        .map(|s| {
+            let light = match &s.emission {
+                Some(e) => {
+                    let emitter = Arc::new(Emitter {
+                        spectrum: e.spectrum.clone(),
+                        texture: e.texture.clone(),
+                    });
+                    lights.push(Light::Sphere(SphereLight::new(
+                        s.sphere,
+                        emitter,
+                        e.two_sided,
+                        s.inward,
+                    )));
+                    lights.len() as u32 - 1
+                }
+                None => NO_LIGHT,
+            };
+            SphereShading {
+                material: s.material,
+                light,
+                inward: s.inward,
+            }
+        })
+        .collect();
+    (set, shading)
+}
