@@ -26,6 +26,16 @@ pub fn recording<T>(f: impl FnOnce() -> T) -> (T, Vec<(PathBuf, u64)>) {
     (result, files)
 }
 
+/// Adds `files` to the files read, as if read now (what a scene reused
+/// from an earlier load depends on).
+pub fn record(files: &[(PathBuf, u64)]) {
+    READ.with(|r| {
+        if let Some(read) = r.borrow_mut().as_mut() {
+            read.extend_from_slice(files);
+        }
+    });
+}
+
 /// A 64-bit FNV-1a over 8-byte words (then the tail): quick on big meshes.
 pub fn content_hash(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;

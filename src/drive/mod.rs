@@ -22,6 +22,7 @@ pub mod tile;
 
 pub use job::{Outcome, RenderJob};
 pub use options::{PassHook, RenderError, RenderOptions, RenderStats, Stop};
+pub use progress::ProgressCounts;
 
 use crate::film::{tile_spectrum_bytes, AovSample, FilmSettings, PixelSums, AOV_BYTES};
 use crate::sampler::Sampler;

@@ -6,6 +6,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
+use super::progress::ProgressCounts;
 use crate::film::{Film, FilmSettings};
 
 /// One render of a loaded scene: which samples, where, on how many threads.
@@ -24,6 +25,9 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Show a progress bar on the terminal.
     pub progress: bool,
+    /// Where the render counts its samples as it goes, for a caller that
+    /// shows progress its own way.
+    pub progress_counts: Option<Arc<ProgressCounts>>,
     /// Set to stop early: the pass under way finishes, and is kept.
     pub cancel: Option<Arc<AtomicBool>>,
     /// Stop after the pass during which this much time has passed.
@@ -61,6 +65,7 @@ impl RenderOptions {
             region: [0, 0, f.width, f.height],
             threads: None,
             progress: false,
+            progress_counts: None,
             cancel: None,
             time_budget: None,
             target_error: None,

@@ -12,23 +12,51 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Samples taken of the total, shown as the render goes.
 pub struct Progress {
     bar: ProgressBar,
-    counts: Arc<Counts>,
+    counts: Arc<ProgressCounts>,
     logger: Option<JoinHandle<()>>,
 }
 
-#[derive(Default)]
-struct Counts {
+/// Samples taken and to take, readable while the render runs (by another
+/// thread: the Python module's progress callback).
+#[derive(Default, Debug)]
+pub struct ProgressCounts {
     done: AtomicU64,
     total: AtomicU64,
     finished: AtomicBool,
 }
 
+impl ProgressCounts {
+    /// Samples taken so far.
+    pub fn done(&self) -> u64 {
+        self.done.load(Ordering::Relaxed)
+    }
+
+    /// Samples the render will take (it changes once, when adaptive
+    /// sampling chooses the pixels' counts).
+    pub fn total(&self) -> u64 {
+        self.total.load(Ordering::Relaxed)
+    }
+
+    /// Whether the render has ended.
+    pub fn finished(&self) -> bool {
+        self.finished.load(Ordering::Relaxed)
+    }
+}
+
 impl Progress {
     /// Progress towards `total` samples: a bar where `show` and stderr is a
     /// terminal, a line every `log_every` where `show` and it is not,
-    /// nothing otherwise.
-    pub fn new(total: u64, show: bool, log_every: Duration, start: Instant) -> Self {
-        let counts = Arc::new(Counts::default());
+    /// nothing otherwise. The counts go to `shared` where given.
+    pub fn new(
+        total: u64,
+        show: bool,
+        log_every: Duration,
+        start: Instant,
+        shared: Option<Arc<ProgressCounts>>,
+    ) -> Self {
+        let counts = shared.unwrap_or_default();
+        counts.done.store(0, Ordering::Relaxed);
+        counts.finished.store(false, Ordering::Relaxed);
         counts.total.store(total, Ordering::Relaxed);
         let bar = if show {
             bar(total)
@@ -90,7 +118,7 @@ fn bar(total: u64) -> ProgressBar {
 
 /// A progress line every `every` until the render finishes: for logs,
 /// where no bar can be drawn.
-fn log_progress(counts: &Counts, start: Instant, every: Duration) {
+fn log_progress(counts: &ProgressCounts, start: Instant, every: Duration) {
     let mut next = every;
     while !counts.finished.load(Ordering::Relaxed) {
         std::thread::sleep(Duration::from_millis(50).min(every));

@@ -49,6 +49,9 @@ pub struct FilmSettings {
     pub gamut: Gamut,
     /// Extra outputs of NAME.exr.
     pub aovs: AovSet,
+    /// The white balance as the scene names it (an illuminant, or a
+    /// temperature in kelvin), for the files' headers; None without one.
+    pub white_balance: Option<String>,
 }
 
 /// Which arbitrary output variables NAME.exr carries (`film.aovs`).
@@ -108,6 +111,7 @@ impl FilmSettings {
             png_bits: 8,
             gamut: Gamut::Clip,
             aovs: AovSet::default(),
+            white_balance: None,
         }
     }
 
@@ -340,6 +344,30 @@ impl Film {
             .flat_map(|y| (0..self.width).map(move |x| (x, y)))
             .map(|(x, y)| transform.rgb(self.xyz(x, y)))
             .collect()
+    }
+
+    /// Mean XYZ of every pixel, row-major from the top left, three floats
+    /// a pixel (an H×W×3 array).
+    pub fn xyz_image(&self) -> Vec<f32> {
+        let mut out = Vec::with_capacity(self.pixels.len() * 3);
+        for y in 0..self.height {
+            for x in 0..self.width {
+                out.extend_from_slice(&self.xyz(x, y).to_array());
+            }
+        }
+        out
+    }
+
+    /// Mean spectral radiance (per nm) of every bucket of every pixel,
+    /// row-major from the top left, buckets innermost (an H×W×B array).
+    pub fn spectral_cube(&self) -> Vec<f32> {
+        let n = self.layout.count as usize;
+        let mut out = Vec::with_capacity(self.buckets.len());
+        for (i, p) in self.pixels.iter().enumerate() {
+            let s = p.samples.max(1) as f32;
+            out.extend(self.buckets[i * n..(i + 1) * n].iter().map(|v| v / s));
+        }
+        out
     }
 
     /// Mean spectral radiance (per nm) of each bucket of a pixel.

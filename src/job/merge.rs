@@ -46,7 +46,7 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
     )
     .map_err(anyhow::Error::msg)?;
     for (p, img) in &images {
-        if img.attributes.contains_key("prismInterrupted") {
+        if img.attributes.contains_key(super::ATTR_INTERRUPTED) {
             eprintln!(
                 "warning: {} is an interrupted render: it holds fewer samples than its range",
                 p.display()

@@ -15,7 +15,10 @@ use anyhow::{bail, Context, Result};
 pub use info::describe;
 pub use interrupt::{Interrupts, Reaction};
 pub use merge::{merge_files, MergeJob};
-pub use render::{render_files, RenderJob, RenderOutcome};
+pub use render::{
+    render_files, spectral_attributes, write_set, RenderJob, RenderOutcome, ATTR_INTERRUPTED,
+    ATTR_WHITE_BALANCE, ATTR_XYZ_TO_RGB,
+};
 
 /// Where NAME.exr and NAME.png go: `output` (extension dropped) or next to
 /// the scene.

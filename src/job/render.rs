@@ -349,7 +349,86 @@ fn write_outputs(
     result: &Film,
     stem: &Path,
 ) -> Result<()> {
-    let (film, integrator) = (&loaded.settings.film, &loaded.settings.integrator);
+    let attributes = spectral_attributes(
+        &job.scene.display().to_string(),
+        &loaded.report.content_hash(),
+        &loaded.settings,
+        options,
+        stats,
+    );
+    let film = &loaded.settings.film;
+    write_set(stem, film, result, &attributes)?;
+    eprintln!(
+        "wrote {} and {}",
+        suffixed(stem, "exr").display(),
+        suffixed(stem, "png").display()
+    );
+    if film.spectral_output {
+        eprintln!("wrote {}", suffixed(stem, "spectral.exr").display());
+    }
+    Ok(())
+}
+
+/// The spectral EXR's header attributes of a render of `scene` (its name
+/// as given) whose inputs hash to `content_hash`: what `prism merge` and
+/// `prism.read` need to know of it.
+pub fn spectral_attributes(
+    scene: &str,
+    content_hash: &str,
+    settings: &RenderSettings,
+    options: &RenderOptions,
+    stats: &RenderStats,
+) -> Vec<(&'static str, String)> {
+    let film = &settings.film;
+    let samples = &options.samples;
+    let mut extra = vec![
+        ("prismScene", scene.to_string()),
+        // The scene file and every file it loads: a part rendered
+        // after a mesh or a spectrum changed is of another scene.
+        (ATTR_SCENE_HASH, content_hash.to_string()),
+        (ATTR_SEED, options.seed.to_string()),
+        (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
+        (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
+        ("prismIntegrator", settings.integrator.name().to_string()),
+        ("prismObserver", film.observer.name().to_string()),
+        // How the R, G, B channels came from XYZ (colour space and white
+        // balance): `prism.read` inverts it.
+        (ATTR_XYZ_TO_RGB, matrix_text(film.colour.matrix())),
+        (
+            ATTR_WHITE_BALANCE,
+            film.white_balance.clone().unwrap_or_else(|| "none".into()),
+        ),
+        // How `prism merge` makes the PNG from the R, G, B channels.
+        (ATTR_DISPLAY, film.display.name().to_string()),
+        (ATTR_RGB_TO_DISPLAY, matrix_text(rgb_to_display(film))),
+        (ATTR_GAMUT, format!("{:?}", film.gamut).to_lowercase()),
+        (ATTR_PNG_BITS, film.png_bits.to_string()),
+    ];
+    if stats.stop != Stop::Complete {
+        extra.push((ATTR_INTERRUPTED, "true".into()));
+    }
+    if options.adaptive {
+        extra.push((ATTR_ADAPTIVE, "true".into()));
+    }
+    extra
+}
+
+/// The spectral EXR's XYZ → RGB matrix (row-major), of the film's colour
+/// space and white balance.
+pub const ATTR_XYZ_TO_RGB: &str = "prismXyzToRgb";
+/// The film's white balance as the scene wrote it ("none" without one).
+pub const ATTR_WHITE_BALANCE: &str = "prismWhiteBalance";
+/// Present ("true") when the render stopped before every sample was taken.
+pub const ATTR_INTERRUPTED: &str = "prismInterrupted";
+
+/// Writes `result` as NAME.exr, NAME.png and (where the film asks for it)
+/// NAME.spectral.exr with `attributes`, as one set.
+pub fn write_set(
+    stem: &Path,
+    film: &FilmSettings,
+    result: &Film,
+    attributes: &[(&str, String)],
+) -> Result<()> {
     let exr = suffixed(stem, "exr");
     let png = suffixed(stem, "png");
     output::as_one_set(|| {
@@ -359,39 +438,11 @@ fn write_outputs(
         output::write_png(result, film, &png)?;
         if film.spectral_output {
             let spectral = suffixed(stem, "spectral.exr");
-            let samples = &options.samples;
-            let mut extra = vec![
-                ("prismScene", job.scene.display().to_string()),
-                // The scene file and every file it loads: a part rendered
-                // after a mesh or a spectrum changed is of another scene.
-                (ATTR_SCENE_HASH, loaded.report.content_hash()),
-                (ATTR_SEED, options.seed.to_string()),
-                (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
-                (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
-                ("prismIntegrator", integrator.name().to_string()),
-                ("prismObserver", film.observer.name().to_string()),
-                // How `prism merge` makes the PNG from the R, G, B channels.
-                (ATTR_DISPLAY, film.display.name().to_string()),
-                (ATTR_RGB_TO_DISPLAY, matrix_text(rgb_to_display(film))),
-                (ATTR_GAMUT, format!("{:?}", film.gamut).to_lowercase()),
-                (ATTR_PNG_BITS, film.png_bits.to_string()),
-            ];
-            if stats.stop != Stop::Complete {
-                extra.push(("prismInterrupted", "true".into()));
-            }
-            if job.adaptive {
-                extra.push((ATTR_ADAPTIVE, "true".into()));
-            }
-            spectral_exr::write(result, &film.colour, &spectral, &extra)?;
+            spectral_exr::write(result, &film.colour, &spectral, attributes)?;
         } else {
             // An earlier render's spectral file is not of this image.
             output::retire_in_set(&suffixed(stem, "spectral.exr"));
         }
         Ok(())
-    })?;
-    eprintln!("wrote {} and {}", exr.display(), png.display());
-    if film.spectral_output {
-        eprintln!("wrote {}", suffixed(stem, "spectral.exr").display());
-    }
-    Ok(())
+    })
 }

@@ -71,6 +71,11 @@ impl Loader {
             png_bits: f.png_bits,
             gamut: f.gamut,
             aovs,
+            white_balance: f.white_balance.as_ref().map(|v| match v {
+                toml::Value::String(name) => name.clone(),
+                toml::Value::Table(t) => format!("{} K", t["temperature"]),
+                other => other.to_string(),
+            }),
         })
     }
 

@@ -20,12 +20,13 @@ use std::cell::{Cell, RefCell};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 
 use crate::film::{Gamut, Tonemap};
 use crate::integrator::{IntegratorKind, Strategy};
 use crate::material::{Cutout, Material};
 use crate::render::{RenderOptions, RenderSettings};
-use crate::scene::Scene;
+use crate::scene::{Scene, SceneGeometry};
 use crate::spectrum::Spectrum;
 use format::SceneFile;
 use import::{Asset, TextureCache};
@@ -116,6 +117,25 @@ pub struct Loaded {
     pub scene: Scene,
     pub settings: RenderSettings,
     pub report: LoadReport,
+    /// The built shapes, for a later load of an edited scene to reuse.
+    shapes: Arc<BuiltShapes>,
+}
+
+/// What building a scene's shapes made, kept so that a load of the same
+/// shapes (an edit of materials, lights, camera or film: `load_text` with
+/// `previous`) reuses it instead of reading meshes and building a BVH.
+struct BuiltShapes {
+    /// Everything the shapes depend on (see `shapes_key`).
+    key: String,
+    geometry: Arc<SceneGeometry>,
+    /// Materials the assets defined, after the scene's own and the default.
+    asset_materials: Vec<Material>,
+    cutouts: HashMap<u32, Cutout>,
+    warnings: Vec<String>,
+    /// Files the shapes were read from, with their hashes.
+    inputs: Vec<(PathBuf, u64)>,
+    /// Bytes the BVH build holds for a while (beside the loaded scene).
+    build_bytes: u64,
 }
 
 /// What loading found beside the scene.
@@ -164,7 +184,7 @@ pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Loaded, SceneErro
         let text =
             crate::input::read_to_string(path).map_err(|e| err(format!("the scene file: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));
-        Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides)
+        Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides, None)
     });
     let mut loaded = scene?;
     loaded.report.inputs = inputs;
@@ -173,7 +193,93 @@ pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Loaded, SceneErro
 
 /// Loads a scene from TOML text; `base` is the folder relative paths start from.
 pub fn load_str(text: &str, base: &Path) -> Result<Loaded, SceneError> {
-    Loader::new(PathBuf::from("<scene>"), base.to_path_buf()).load(text, &Overrides::default())
+    load_text(
+        text,
+        Path::new("<scene>"),
+        base,
+        &Overrides::default(),
+        None,
+    )
+}
+
+/// Loads a scene from TOML text that errors call `name`; relative paths
+/// start at `base`. Where `previous` (an earlier load) has the same shapes
+/// (the same `[[shape]]` tables, `[spectra]`, `units`, material names and
+/// `base`), its built geometry and imported materials are shared, not read
+/// and built again: an edit of materials, lights, camera or film loads in
+/// the time those take. Files are not read again then, so an edit of a
+/// mesh on disk needs a load without `previous`.
+pub fn load_text(
+    text: &str,
+    name: &Path,
+    base: &Path,
+    overrides: &Overrides,
+    previous: Option<&Loaded>,
+) -> Result<Loaded, SceneError> {
+    let (scene, mut inputs) = crate::input::recording(|| {
+        Loader::new(name.to_path_buf(), base.to_path_buf()).load(text, overrides, previous)
+    });
+    let mut loaded = scene?;
+    inputs.insert(
+        0,
+        (
+            name.to_path_buf(),
+            crate::input::content_hash(text.as_bytes()),
+        ),
+    );
+    loaded.report.inputs = inputs;
+    Ok(loaded)
+}
+
+/// A spectrum written as a scene writes one (`value`: a number, a name
+/// such as "D65", a table of [nm, value] rows, `{ blackbody = 2856 }`, ...)
+/// for `role`: "emission" (illuminants normalised to luminance 1),
+/// "reflectance" (in [0, 1]) or "unbounded" (optical constants). Files it
+/// names are relative to `base`. Errors name `key`.
+pub fn spectrum(
+    value: toml::Value,
+    role: &str,
+    base: &Path,
+    key: &str,
+) -> Result<Spectrum, SceneError> {
+    let loader = Loader::new(PathBuf::from("<spectrum>"), base.to_path_buf());
+    let role = match role {
+        "emission" => spectra::Role::Emission,
+        "reflectance" => spectra::Role::Reflectance,
+        "unbounded" => spectra::Role::Unbounded,
+        other => {
+            return Err(loader.error(format!(
+                "unknown spectrum role {other:?}: emission, reflectance or unbounded"
+            )))
+        }
+    };
+    let spec: spectrum_spec::SpectrumSpec = value
+        .try_into()
+        .map_err(|e: toml::de::Error| loader.error(format!("`{key}`: {}", e.message())))?;
+    let mut empty = toml::Table::new();
+    empty.insert("camera".into(), toml::Value::Table(toml::Table::new()));
+    let file: SceneFile = toml::Value::Table(empty)
+        .try_into()
+        .map_err(|e: toml::de::Error| loader.error(e.to_string()))?;
+    loader.spectrum(&spec, role, &file, key)
+}
+
+/// What a scene's shapes depend on, as text: two loads with equal keys
+/// build the same geometry and asset materials.
+fn shapes_key(value: &toml::Value, file: &SceneFile, base: &Path) -> String {
+    let mut key = toml::Table::new();
+    for part in ["shape", "spectra", "units"] {
+        if let Some(v) = value.get(part) {
+            key.insert(part.into(), v.clone());
+        }
+    }
+    let names = file.materials.keys().cloned().map(toml::Value::String);
+    key.insert("material names".into(), toml::Value::Array(names.collect()));
+    key.insert(
+        "base".into(),
+        toml::Value::String(base.display().to_string()),
+    );
+    toml::Value::Table(key).to_string()
 }
 
 struct Loader {
@@ -257,17 +363,29 @@ impl Loader {
 
     /// Loads the scene, tallying what its inputs hold against the memory
     /// budget; the scene keeps the bytes of its images.
-    fn load(&self, text: &str, overrides: &Overrides) -> Result<Loaded, SceneError> {
-        let (loaded, held) = crate::memory::tallying(None, || self.load_scene(text, overrides));
+    fn load(
+        &self,
+        text: &str,
+        overrides: &Overrides,
+        previous: Option<&Loaded>,
+    ) -> Result<Loaded, SceneError> {
+        let (loaded, held) =
+            crate::memory::tallying(None, || self.load_scene(text, overrides, previous));
         let mut loaded = loaded?;
         loaded.scene.image_bytes = held.saturating_sub(self.meshes_held.get());
         Ok(loaded)
     }
 
-    fn load_scene(&self, text: &str, overrides: &Overrides) -> Result<Loaded, SceneError> {
-        let value: toml::Table =
-            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?;
-        if let Some((key, v)) = first_non_finite(&toml::Value::Table(value), "") {
+    fn load_scene(
+        &self,
+        text: &str,
+        overrides: &Overrides,
+        previous: Option<&Loaded>,
+    ) -> Result<Loaded, SceneError> {
+        let value = toml::Value::Table(
+            toml::from_str(text).map_err(|e| self.error(with_suggestion(e.to_string())))?,
+        );
+        if let Some((key, v)) = first_non_finite(&value, "") {
             return Err(self.error(if v.is_finite() {
                 format!(
                     "`{key}` = {v:e} is beyond single precision (±{:e}), which prism computes in",
@@ -313,8 +431,21 @@ impl Loader {
         materials.push(Material::Diffuse {
             reflectance: Spectrum::Constant(0.5).into(),
         });
-        let (shapes, spheres) =
-            self.shapes(&file, &material_index, &mut materials, default_material)?;
+        let key = shapes_key(&value, &file, &self.base);
+        // The BVH build's transient memory, where it runs this time.
+        let (built, build_bytes) = match previous.filter(|p| p.shapes.key == key) {
+            Some(p) => {
+                crate::input::record(&p.shapes.inputs);
+                (p.shapes.clone(), 0)
+            }
+            None => {
+                let built =
+                    self.build_shapes(key, &file, &material_index, &materials, default_material)?;
+                let bytes = built.build_bytes;
+                (Arc::new(built), bytes)
+            }
+        };
+        materials.extend(built.asset_materials.iter().cloned());
         // Imported assets give media per metre (glTF's unit): per scene unit.
         let units = self.units(&file)?;
         for m in &mut materials[default_material as usize + 1..] {
@@ -325,24 +456,18 @@ impl Loader {
             Some(spec) => Some(self.medium(spec, &file, "medium")?),
             None => None,
         };
-        let triangles: u64 = shapes.iter().map(|s| s.mesh.indices.len() as u64).sum();
-        let build = triangles * crate::scene::BUILD_BYTES_PER_TRIANGLE;
-        crate::memory::check(
-            &format!("building the scene's {triangles} triangles"),
-            build,
-        )
-        .map_err(|e| self.error(e))?;
-        let load_peak = crate::memory::held() + build;
-        let scene = Scene::build(camera, materials, shapes, spheres, lights)
+        let load_peak = crate::memory::held() + build_bytes;
+        let scene = Scene::assemble(camera, materials, built.geometry.clone(), lights)
             .with_world_medium(world_medium)
-            .with_cutouts(self.cutouts.take());
+            .with_cutouts(built.cutouts.clone());
         if scene.lights.is_empty() {
             self.warn(
                 "the scene has no light (no shape with `emission`, no [[light]], no [environment]) \
                  or none that emits: the image will be black",
             );
         }
-        let mut warnings = self.textures.borrow_mut().warnings.split_off(0);
+        let mut warnings = built.warnings.clone();
+        warnings.append(&mut self.textures.borrow_mut().warnings.split_off(0));
         warnings.append(&mut self.warnings.take());
         Ok(Loaded {
             scene,
@@ -352,6 +477,52 @@ impl Loader {
                 inputs: Vec::new(),
                 peak_bytes: load_peak,
             },
+            shapes: built,
+        })
+    }
+
+    /// Reads the shapes' meshes and builds the geometry: the BVH, and
+    /// the materials the assets define (after `materials`).
+    fn build_shapes(
+        &self,
+        key: String,
+        file: &SceneFile,
+        material_index: &BTreeMap<String, u32>,
+        materials: &[Material],
+        default_material: u32,
+    ) -> Result<BuiltShapes, SceneError> {
+        let warned = self.warnings.borrow().len();
+        let textures_warned = self.textures.borrow().warnings.len();
+        let (shapes, inputs) = crate::input::recording(|| {
+            let mut all = materials.to_vec();
+            let shapes = self.shapes(file, material_index, &mut all, default_material)?;
+            Ok::<_, SceneError>((shapes, all.split_off(materials.len())))
+        });
+        crate::input::record(&inputs);
+        let ((shapes, spheres), asset_materials) = shapes?;
+        let triangles: u64 = shapes.iter().map(|s| s.mesh.indices.len() as u64).sum();
+        let build = triangles * crate::scene::BUILD_BYTES_PER_TRIANGLE;
+        crate::memory::check(
+            &format!("building the scene's {triangles} triangles"),
+            build,
+        )
+        .map_err(|e| self.error(e))?;
+        // The shapes' warnings go with them, to be said again on reuse.
+        let mut warnings = self.warnings.borrow_mut().split_off(warned);
+        warnings.extend(
+            self.textures
+                .borrow_mut()
+                .warnings
+                .split_off(textures_warned),
+        );
+        Ok(BuiltShapes {
+            key,
+            geometry: Arc::new(SceneGeometry::build(shapes, spheres)),
+            asset_materials,
+            cutouts: self.cutouts.take(),
+            warnings,
+            inputs,
+            build_bytes: build,
         })
     }
 }

@@ -9,7 +9,7 @@ mod memory;
 pub use crate::drive::adaptive::{
     pilot_spp, progress as adaptive_progress, targets as adaptive_targets,
 };
-pub use crate::drive::{PassHook, RenderError, RenderOptions, RenderStats, Stop};
+pub use crate::drive::{PassHook, ProgressCounts, RenderError, RenderOptions, RenderStats, Stop};
 pub use memory::{memory_estimate, MemoryEstimate};
 
 use crate::drive::{AovTracer, RenderJob};
