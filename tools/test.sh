@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Runs every test of prism: the Rust suite (unit, rendering and CLI tests)
-# and the colour-science checks under tools/tests. Sets up the Python
-# environment for tools/ on first use (tools/.venv, pinned requirements).
+# Runs every test of prism: the Rust suite (unit, rendering and CLI tests),
+# the colour-science checks under tools/tests, and the Python package's
+# tests and examples (python/). Sets up the Python environment on first
+# use (tools/.venv, pinned requirements) and builds the Python package into
+# it from the same release build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,3 +21,9 @@ export PRISM_BIN="${PRISM_BIN:-$PWD/target/release/prism}"
 source tools/venv.sh
 ensure_tools_venv
 tools/.venv/bin/python -m pytest -q -c tools/pytest.ini tools/tests
+
+# The Python package, as `pip install ./python` builds it (maturin, the
+# release profile: it reuses the crates built above and links once more).
+PATH="$PWD/tools/.venv/bin:$PATH" tools/.venv/bin/python -m pip install \
+    --quiet --no-build-isolation --no-deps ./python
+tools/.venv/bin/python -m pytest -q -c python/pytest.ini python/tests
