@@ -85,6 +85,7 @@ fn terrain(mesh: Mesh) -> Scene {
         camera,
         vec![material],
         vec![ShapeInstance {
+            emission_of: None,
             mesh,
             material: 0,
             emission: None,

@@ -49,6 +49,15 @@ impl AreaLight {
     }
 
     /// The light of a cut-out material's triangle.
+    /// The same triangle sending out `emitter`.
+    pub fn with_emitter(&self, emitter: Arc<Emitter>, two_sided: bool) -> Self {
+        Self {
+            emitter,
+            two_sided,
+            ..self.clone()
+        }
+    }
+
     pub fn with_cutout(self, cutout: Arc<Cutout>) -> Self {
         Self {
             cutout: Some(cutout),

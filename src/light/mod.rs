@@ -29,6 +29,7 @@ mod sphere;
 mod sun;
 
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
@@ -430,6 +431,19 @@ lights! {
     Sun(Sun),
     /// An emissive exact sphere.
     Sphere(SphereLight),
+}
+
+impl Light {
+    /// The same surface light sending out `emitter` (an edit of its
+    /// shape's emission); a light that is no surface's is returned as it is.
+    pub fn with_emitter(&self, emitter: Arc<Emitter>, two_sided: bool) -> Light {
+        match self {
+            Light::Area(l) => Light::Area(l.with_emitter(emitter, two_sided)),
+            Light::Sphere(l) => Light::Sphere(l.with_emitter(emitter, two_sided)),
+            // No emitter of a surface to replace.
+            other => other.clone(),
+        }
+    }
 }
 
 #[cfg(test)]

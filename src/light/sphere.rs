@@ -31,6 +31,15 @@ pub struct SphereLight {
 const SMALL_CONE: f32 = 1e-3;
 
 impl SphereLight {
+    /// The same sphere sending out `emitter`.
+    pub fn with_emitter(&self, emitter: Arc<Emitter>, two_sided: bool) -> Self {
+        Self {
+            emitter,
+            two_sided,
+            ..self.clone()
+        }
+    }
+
     pub fn new(sphere: Sphere, emitter: Arc<Emitter>, two_sided: bool, inward: bool) -> Self {
         Self {
             sphere,

@@ -273,6 +273,16 @@ fn shapes_key(value: &toml::Value, file: &SceneFile, base: &Path) -> String {
             key.insert(part.into(), v.clone());
         }
     }
+    // A shape's emission is not geometry: an edit of it replaces the
+    // lights of the shared geometry. Whether the shape emits is.
+    if let Some(toml::Value::Array(shapes)) = key.get_mut("shape") {
+        for shape in shapes.iter_mut().filter_map(toml::Value::as_table_mut) {
+            let emits = shape.remove("emission").is_some();
+            shape.remove("emission_scale");
+            shape.remove("two_sided");
+            shape.insert("emits".into(), toml::Value::Boolean(emits));
+        }
+    }
     let names = file.materials.keys().cloned().map(toml::Value::String);
     key.insert("material names".into(), toml::Value::Array(names.collect()));
     key.insert(
@@ -433,16 +443,16 @@ impl Loader {
         });
         let key = shapes_key(&value, &file, &self.base);
         // The BVH build's transient memory, where it runs this time.
-        let (built, build_bytes) = match previous.filter(|p| p.shapes.key == key) {
+        let (built, build_bytes, reused) = match previous.filter(|p| p.shapes.key == key) {
             Some(p) => {
                 crate::input::record(&p.shapes.inputs);
-                (p.shapes.clone(), 0)
+                (p.shapes.clone(), 0, true)
             }
             None => {
                 let built =
                     self.build_shapes(key, &file, &material_index, &materials, default_material)?;
                 let bytes = built.build_bytes;
-                (Arc::new(built), bytes)
+                (Arc::new(built), bytes, false)
             }
         };
         materials.extend(built.asset_materials.iter().cloned());
@@ -457,9 +467,24 @@ impl Loader {
             None => None,
         };
         let load_peak = crate::memory::held() + build_bytes;
-        let scene = Scene::assemble(camera, materials, built.geometry.clone(), lights)
-            .with_world_medium(world_medium)
-            .with_cutouts(built.cutouts.clone());
+        let surface_lights = if reused {
+            // Shared geometry: its shapes' emission may have been edited.
+            let emission: Result<Vec<_>, _> = (file.shapes.iter().enumerate())
+                .map(|(i, shape)| self.shape_emission(i, shape, &file))
+                .collect();
+            built.geometry.surface_lights_with(&emission?)
+        } else {
+            built.geometry.surface_lights().to_vec()
+        };
+        let scene = Scene::assemble(
+            camera,
+            materials,
+            built.geometry.clone(),
+            surface_lights,
+            lights,
+        )
+        .with_world_medium(world_medium)
+        .with_cutouts(built.cutouts.clone());
         if scene.lights.is_empty() {
             self.warn(
                 "the scene has no light (no shape with `emission`, no [[light]], no [environment]) \

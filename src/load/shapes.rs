@@ -56,32 +56,8 @@ impl Loader {
                     ))
                 })?),
             };
-            let emission = match &common.emission {
-                None => {
-                    if common.emission_scale.is_some() || common.two_sided.is_some() {
-                        return Err(self.error(format!(
-                            "`{key}`: `emission_scale` and `two_sided` need `emission`"
-                        )));
-                    }
-                    None
-                }
-                Some(spec) => {
-                    let scale = common.emission_scale.unwrap_or(1.0);
-                    if scale < 0.0 {
-                        return Err(
-                            self.error(format!("`{key}.emission_scale` must not be negative"))
-                        );
-                    }
-                    let spectrum = self
-                        .spectrum(spec, Role::Emission, file, &format!("{key}.emission"))?
-                        .scaled(scale);
-                    Some(Emission {
-                        spectrum: self.checked_emission(spectrum, &format!("{key}.emission"))?,
-                        texture: None,
-                        two_sided: common.two_sided.unwrap_or(false),
-                    })
-                }
-            };
+            let emission = self.shape_emission(i, shape, file)?;
+            let emission_of = emission.is_some().then_some(i as u32);
             let file_shape = match &shape.geometry {
                 ShapeGeometry::Obj(f) => Some((&f.file, &f.mesh, &f.materials, f.smooth)),
                 ShapeGeometry::Gltf(f) => Some((&f.file, &f.mesh, &f.materials, None)),
@@ -106,6 +82,7 @@ impl Loader {
                             mesh,
                             material: material.unwrap_or(m.unwrap_or(default_material)),
                             emission: emission.clone().or(e),
+                            emission_of: emission.is_some().then_some(i as u32),
                         });
                     }
                 }
@@ -114,6 +91,7 @@ impl Loader {
                         sphere: self.exact_sphere(sphere, shape, &key)?,
                         material: material.unwrap_or(default_material),
                         emission,
+                        emission_of,
                         inward: common.flip_normals,
                     });
                 }
@@ -125,11 +103,47 @@ impl Loader {
                         mesh,
                         material: material.unwrap_or(default_material),
                         emission,
+                        emission_of,
                     });
                 }
             }
         }
         Ok((shapes, spheres))
+    }
+
+    /// The light a `[[shape]]` table's `emission` asks for (None without one).
+    pub(super) fn shape_emission(
+        &self,
+        i: usize,
+        shape: &ShapeSpec,
+        file: &SceneFile,
+    ) -> Result<Option<Emission>, SceneError> {
+        let key = format!("shape[{i}]");
+        let common = &shape.common;
+        Ok(match &common.emission {
+            None => {
+                if common.emission_scale.is_some() || common.two_sided.is_some() {
+                    return Err(self.error(format!(
+                        "`{key}`: `emission_scale` and `two_sided` need `emission`"
+                    )));
+                }
+                None
+            }
+            Some(spec) => {
+                let scale = common.emission_scale.unwrap_or(1.0);
+                if scale < 0.0 {
+                    return Err(self.error(format!("`{key}.emission_scale` must not be negative")));
+                }
+                let spectrum = self
+                    .spectrum(spec, Role::Emission, file, &format!("{key}.emission"))?
+                    .scaled(scale);
+                Some(Emission {
+                    spectrum: self.checked_emission(spectrum, &format!("{key}.emission"))?,
+                    texture: None,
+                    two_sided: common.two_sided.unwrap_or(false),
+                })
+            }
+        })
     }
 
     /// An exact sphere: its centre and radius placed by the shape's

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::{ShapeInstance, SphereInstance};
+use super::{Emission, ShapeInstance, SphereInstance};
 use crate::geometry::sphere::SphereSet;
 use crate::geometry::{triangle, Aabb, Bvh};
 use crate::light::{AreaLight, Emitter, Light, SceneSphere, SphereLight};
@@ -59,6 +59,9 @@ pub struct SceneGeometry {
     pub(super) attributes: VertexAttributes,
     /// The area and sphere lights, in the order the shading data index.
     pub(super) surface_lights: Vec<Light>,
+    /// For each surface light, the scene shape whose `emission` it is
+    /// (`ShapeInstance::emission_of`).
+    light_sources: Vec<Option<u32>>,
     pub(super) sphere: SceneSphere,
     pub(super) degenerate_triangles: usize,
 }
@@ -71,6 +74,7 @@ impl SceneGeometry {
         let mut shading = Vec::new();
         let mut emitters: Vec<Option<u32>> = Vec::new();
         let mut light_emitters = Vec::new();
+        let mut light_sources = Vec::new();
         let mut attributes = VertexAttributes::default();
         let mut degenerate = 0;
         for shape in shapes {
@@ -79,7 +83,7 @@ impl SceneGeometry {
                     spectrum: e.spectrum,
                     texture: e.texture,
                 };
-                light_emitters.push((Arc::new(emitter), e.two_sided));
+                light_emitters.push((Arc::new(emitter), e.two_sided, shape.emission_of));
                 light_emitters.len() as u32 - 1
             });
             let mesh = shape.mesh;
@@ -135,7 +139,8 @@ impl SceneGeometry {
                 let info = &shading[prim];
                 let uvs = (info.attributes & HAS_UVS != 0)
                     .then(|| info.vertices.map(|v| attributes.uvs[v as usize]));
-                let (emitter, two_sided) = &light_emitters[e as usize];
+                let (emitter, two_sided, source) = &light_emitters[e as usize];
+                light_sources.push(*source);
                 lights.push(Light::Area(AreaLight::new(
                     triangles[prim],
                     uvs,
@@ -145,6 +150,12 @@ impl SceneGeometry {
             }
         }
         let (sphere_set, sphere_shading) = sphere_lights(&spheres, &mut lights);
+        light_sources.extend(
+            spheres
+                .iter()
+                .filter(|s| s.emission.is_some())
+                .map(|s| s.emission_of),
+        );
         let empty = triangles.is_empty() && sphere_set.is_empty();
         let sphere = bounding_sphere(bvh.bounds().union(sphere_set.bounds()), empty);
         SceneGeometry {
@@ -155,6 +166,7 @@ impl SceneGeometry {
             shading,
             attributes,
             surface_lights: lights,
+            light_sources,
             sphere,
             degenerate_triangles: degenerate,
         }
@@ -174,6 +186,41 @@ fn bounding_sphere(bounds: Aabb, empty: bool) -> SceneSphere {
 
 /// The spheres' hierarchy and shading, with a light added to `lights` for
 /// each emitting sphere.
+impl SceneGeometry {
+    /// The surface lights with the emission of scene shapes replaced:
+    /// `emission[i]` for the lights of shape `i` (which must emit, as when
+    /// the geometry was built); assets' own emission stays.
+    pub fn surface_lights_with(&self, emission: &[Option<Emission>]) -> Vec<Light> {
+        let emitters: Vec<Option<(Arc<Emitter>, bool)>> = emission
+            .iter()
+            .map(|e| {
+                e.as_ref().map(|e| {
+                    let emitter = Emitter {
+                        spectrum: e.spectrum.clone(),
+                        texture: e.texture.clone(),
+                    };
+                    (Arc::new(emitter), e.two_sided)
+                })
+            })
+            .collect();
+        self.surface_lights
+            .iter()
+            .zip(&self.light_sources)
+            .map(
+                |(light, source)| match source.and_then(|s| emitters.get(s as usize)?.as_ref()) {
+                    Some((emitter, two_sided)) => light.with_emitter(emitter.clone(), *two_sided),
+                    None => light.clone(),
+                },
+            )
+            .collect()
+    }
+
+    /// The lights of the geometry's surfaces as built.
+    pub fn surface_lights(&self) -> &[Light] {
+        &self.surface_lights
+    }
+}
+
 fn sphere_lights(
     spheres: &[SphereInstance],
     lights: &mut Vec<Light>,

@@ -39,6 +39,9 @@ pub struct ShapeInstance {
     pub mesh: Mesh,
     pub material: u32,
     pub emission: Option<Emission>,
+    /// The scene's shape whose `emission` this is (None: an asset's own
+    /// emission, or none), so that an edit of it can replace the lights.
+    pub emission_of: Option<u32>,
 }
 
 /// A resolved exact sphere: world-space, with its material, emission, and
@@ -47,6 +50,8 @@ pub struct SphereInstance {
     pub sphere: Sphere,
     pub material: u32,
     pub emission: Option<Emission>,
+    /// As `ShapeInstance::emission_of`.
+    pub emission_of: Option<u32>,
     /// The front face (normal, emission) is the inside.
     pub inward: bool,
 }
@@ -160,20 +165,24 @@ impl Scene {
         other_lights: Vec<Light>,
     ) -> Scene {
         let geometry = Arc::new(SceneGeometry::build(shapes, spheres));
-        Scene::assemble(camera, materials, geometry, other_lights)
+        let surface_lights = geometry.surface_lights.clone();
+        Scene::assemble(camera, materials, geometry, surface_lights, other_lights)
     }
 
     /// The runtime scene of built geometry (perhaps another scene's) with
-    /// these camera, materials and other lights (which learn the scene's
-    /// bounds). The geometry's material indices must fit `materials`.
+    /// these camera, materials, lights of its surfaces (the geometry's own,
+    /// or `SceneGeometry::surface_lights_with` other emission) and other
+    /// lights (which learn the scene's bounds). The geometry's material
+    /// indices must fit `materials`.
     pub fn assemble(
         camera: Camera,
         materials: Vec<Material>,
         geometry: Arc<SceneGeometry>,
+        surface_lights: Vec<Light>,
         other_lights: Vec<Light>,
     ) -> Scene {
         let sphere = geometry.sphere;
-        let mut lights = geometry.surface_lights.clone();
+        let mut lights = surface_lights;
         lights.extend(
             other_lights
                 .into_iter()
