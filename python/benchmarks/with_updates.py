@@ -1,6 +1,6 @@
 """How long Scene.with_updates takes against a load of the whole scene, on a
-scene with a 1M-triangle mesh: one material's reflectance changed, and the
-white balance. Prints the median of five of each, alternated.
+scene with a 1M-triangle mesh: one material's reflectance changed, the
+lamp's emission, and the white balance. Prints the median of five of each, alternated.
 
     tools/.venv/bin/python python/benchmarks/with_updates.py [triangles]
 """
@@ -74,16 +74,20 @@ def main() -> None:
         scene = prism.load(d / "scene.toml")
         print(f"{scene.triangle_count} triangles")
         reflectance = (np.array([400.0, 550.0, 700.0]), np.array([0.1, 0.5, 0.9]))
-        loads, updates, balances = [], [], []
+        loads, updates, lamps, balances = [], [], [], []
         for _ in range(5):
             loads.append(timed(lambda: prism.load(d / "scene.toml"))[0])
             t, updated = timed(lambda: scene.with_updates({"materials.patch.reflectance": reflectance}))
             assert scene.shares_geometry(updated)
             updates.append(t)
+            t, relit = timed(lambda: scene.with_updates({"shape[2].emission": "A"}))
+            assert scene.shares_geometry(relit)
+            lamps.append(t)
             balances.append(timed(lambda: scene.with_updates({"film.white_balance": "A"}))[0])
-        load, update, balance = (statistics.median(x) for x in (loads, updates, balances))
+        load, update, lamp, balance = (statistics.median(x) for x in (loads, updates, lamps, balances))
         print(f"load of the scene: {load * 1e3:.1f} ms")
         print(f"with_updates, one reflectance: {update * 1e3:.2f} ms ({load / update:.0f}x faster)")
+        print(f"with_updates, the lamp's emission: {lamp * 1e3:.2f} ms ({load / lamp:.0f}x faster)")
         print(f"with_updates, white balance: {balance * 1e3:.2f} ms ({load / balance:.0f}x faster)")
 
 

@@ -68,6 +68,22 @@ def test_with_updates_shares_the_geometry_when_only_materials_change(cornell):
     assert not cornell.shares_geometry(reshaped)
 
 
+def test_an_edit_of_a_shapes_emission_shares_the_geometry_and_renders_as_a_load(cornell):
+    doc = cornell.to_dict()
+    lamp = next(i for i, s in enumerate(doc["shape"]) if "emission" in s)
+    updates = {f"shape[{lamp}].emission": "A", f"shape[{lamp}].emission_scale": 3.0}
+    relit = cornell.with_updates(updates)
+    assert cornell.shares_geometry(relit)
+    doc["shape"][lamp].update({"emission": "A", "emission_scale": 3.0})
+    loaded = prism.load(doc, base_dir=CORNELL.parent, resolution=cornell.resolution)
+    a = prism.render(relit, spp=4, progress=False).spectral
+    assert np.array_equal(a, prism.render(loaded, spp=4, progress=False).spectral)
+    assert not np.array_equal(a, prism.render(cornell, spp=4, progress=False).spectral)
+    # A shape that starts or stops emitting changes the geometry's lights.
+    dark = cornell.with_updates({f"shape[{lamp}].emission": None})
+    assert not cornell.shares_geometry(dark)
+
+
 def test_with_updates_renders_as_a_scene_loaded_with_the_change(cornell):
     updated = cornell.with_updates({"materials.red.reflectance": {"rgb": [0.2, 0.7, 0.2]}})
     doc = cornell.to_dict()
