@@ -70,12 +70,20 @@ impl SceneGeometry {
     /// Drops degenerate triangles, builds the BVH, stores triangles in its
     /// order and collects the area and sphere lights.
     pub fn build(shapes: Vec<ShapeInstance>, spheres: Vec<SphereInstance>) -> SceneGeometry {
-        let mut triangles = Vec::new();
-        let mut shading = Vec::new();
-        let mut emitters: Vec<Option<u32>> = Vec::new();
+        // Reserved exactly: vectors that grow by doubling reserve address
+        // space they never use, which `ulimit -v` counts.
+        let triangle_count: usize = shapes.iter().map(|s| s.mesh.indices.len()).sum();
+        let vertex_count: usize = shapes.iter().map(|s| s.mesh.positions.len()).sum();
+        let mut triangles = Vec::with_capacity(triangle_count);
+        let mut shading = Vec::with_capacity(triangle_count);
+        let mut emitters: Vec<Option<u32>> = Vec::with_capacity(triangle_count);
         let mut light_emitters = Vec::new();
         let mut light_sources = Vec::new();
-        let mut attributes = VertexAttributes::default();
+        let mut attributes = VertexAttributes {
+            normals: Vec::with_capacity(vertex_count),
+            uvs: Vec::with_capacity(vertex_count),
+            tangents: Vec::with_capacity(vertex_count),
+        };
         let mut degenerate = 0;
         for shape in shapes {
             let emission = shape.emission.map(|e| {

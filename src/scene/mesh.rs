@@ -49,8 +49,10 @@ impl Mesh {
     pub fn sphere(center: Vec3, radius: f32, segments: u32, smooth: bool) -> Mesh {
         let segments = segments.max(3);
         let rings = (segments / 2).max(2);
-        let mut positions = Vec::new();
-        let mut normals = Vec::new();
+        // Reserved exactly (see `sphere_bytes`): no address space to spare.
+        let vertices = ((segments + 1) * (rings + 1)) as usize;
+        let mut positions = Vec::with_capacity(vertices);
+        let mut normals = Vec::with_capacity(vertices);
         for r in 0..=rings {
             // Exact poles: the first and last rings are single points.
             let (sin_t, cos_t) = match r {
@@ -66,7 +68,7 @@ impl Mesh {
             }
         }
         let row = segments + 1;
-        let mut indices = Vec::new();
+        let mut indices = Vec::with_capacity((2 * segments * (rings - 1)) as usize);
         for r in 0..rings {
             for s in 0..segments {
                 let (a, b) = (r * row + s, r * row + s + 1);

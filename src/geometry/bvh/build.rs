@@ -75,7 +75,10 @@ pub(super) fn build_boxes(bounds: &[Aabb]) -> (Vec<WideNode>, Aabb, Vec<u32>) {
     if prims.is_empty() {
         return (Vec::new(), Aabb::EMPTY, Vec::new());
     }
-    let mut binary = Vec::with_capacity(2 * bounds.len());
+    // Grown as built, not reserved for the worst case (2N − 1 nodes; a
+    // tree of SAH leaves has a fraction of that): reserved address space
+    // counts against `ulimit -v` though it is never touched.
+    let mut binary = Vec::new();
     build_range(&mut prims, 0, 0, &mut binary);
     let order = prims.iter().map(|p| p.index).collect();
     let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
@@ -94,7 +97,14 @@ pub(super) fn pack_leaves(
     nodes: &mut [WideNode],
     triangle: impl Fn(usize) -> [Vec3; 3],
 ) -> Vec<Triangle4> {
-    let mut packets = Vec::new();
+    // Exactly the packets there will be: a vector that grows by doubling
+    // reserves address space it never uses (which `ulimit -v` counts).
+    let packets_needed: usize = nodes
+        .iter()
+        .flat_map(|n| n.count)
+        .map(|c| (c as usize).div_ceil(4))
+        .sum();
+    let mut packets = Vec::with_capacity(packets_needed);
     for node in nodes {
         for slot in 0..WIDTH {
             let count = node.count[slot] as usize;
@@ -209,7 +219,7 @@ fn build_range(
     // Big subtrees build on two threads into lists of their own, appended
     // in the order the serial build makes: the same tree either way.
     let subtree = |prims: &mut [BuildPrim], first: usize| {
-        let mut own = Vec::with_capacity(2 * prims.len());
+        let mut own = Vec::new();
         build_range(prims, first, depth + 1, &mut own);
         own
     };
