@@ -433,7 +433,7 @@ fn matches(pattern: &str, name: &str) -> bool {
 }
 
 /// The shell blocks marked `<!-- runnable -->` in README.md and docs/,
-/// each a script.
+/// each a script (Python blocks so marked run in `python/tests`).
 fn runnable_blocks() -> Vec<(String, String)> {
     let mut out = Vec::new();
     let pages = files_under(&root().join("docs"))
@@ -443,6 +443,10 @@ fn runnable_blocks() -> Vec<(String, String)> {
     for page in pages {
         let text = std::fs::read_to_string(&page).unwrap();
         for block in text.split("<!-- runnable -->\n").skip(1) {
+            if block.starts_with("```python\n") {
+                // Run by the Python suite (python/tests/test_docs.py).
+                continue;
+            }
             let body = block
                 .strip_prefix("```sh\n")
                 .and_then(|b| b.split_once("\n```"))

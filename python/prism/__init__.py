@@ -294,7 +294,7 @@ class Scene:
     def with_updates(self, updates: Optional[Mapping[str, Any]] = None, **more: Any) -> "Scene":
         """A scene with some values replaced, keyed by dotted paths:
         ``{"materials.patch.reflectance": (wl, values),
-        "film.white_balance": "A", "shape[1].emission": "F11"}``. A value
+        "film.white_balance": "A", "shape[1].emission": "FL11"}``. A value
         of None removes the key. Keyword arguments are top-level keys.
 
         Only what changed is built again: when the shapes (``[[shape]]``,
@@ -606,7 +606,7 @@ def spectrum(
 ) -> Tuple[np.ndarray, np.ndarray]:
     """A spectrum as prism sees it: ``(wavelengths, values)``.
 
-    ``value`` is what a scene takes: a name ("D65", "A", "F11", ...), a
+    ``value`` is what a scene takes: a name ("D65", "A", "FL11", ...), a
     number, ``[[nm, value], ...]``, ``{"blackbody": 2856}``,
     ``{"rgb": [r, g, b]}``, ``{"file": "x.csv"}``, a numpy pair or a
     colour-science distribution. ``role`` is "emission" (illuminants are
