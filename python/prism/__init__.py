@@ -99,13 +99,19 @@ def _normalise(value: Any) -> Any:
     return value
 
 
-def _check_overrides(overrides: Mapping[str, Any]) -> None:
+def _checked_overrides(overrides: Mapping[str, Any]) -> dict:
+    """The overrides, with pairs given as lists or arrays made tuples."""
     unknown = sorted(set(overrides) - set(OVERRIDES))
     if unknown:
         raise TypeError(
             f"unknown override {unknown[0]!r}: the overrides are {', '.join(OVERRIDES)}; "
             "change other values with Scene.with_updates"
         )
+    out = dict(overrides)
+    for key in ("resolution", "spectral_range"):
+        if out.get(key) is not None and not isinstance(out[key], tuple):
+            out[key] = tuple(np.asarray(out[key]).tolist())
+    return out
 
 
 def _looks_like_toml(text: str) -> bool:
@@ -134,7 +140,7 @@ def load(
     Raises `SceneError` (a ValueError) with the command line's message,
     naming the file, line and key at fault.
     """
-    _check_overrides(overrides)
+    overrides = _checked_overrides(overrides)
     if isinstance(source, Mapping):
         text = _native.to_toml(_normalise(source))
         base = Path(base_dir) if base_dir is not None else Path.cwd()
@@ -315,8 +321,7 @@ class Scene:
     def with_overrides(self, **overrides: Any) -> "Scene":
         """The scene loaded with other command-line overrides (see `load`);
         its geometry is shared."""
-        _check_overrides(overrides)
-        return Scene(self._native.reload(**overrides))
+        return Scene(self._native.reload(**_checked_overrides(overrides)))
 
     def __repr__(self) -> str:
         w, h = self.resolution
@@ -407,6 +412,8 @@ def render(
         if samples.step != 1:
             raise RenderError("samples must be a range with step 1")
         samples = (samples.start, samples.stop)
+    elif samples is not None:
+        samples = tuple(samples)
     bar = None
     callback = None
     if progress is True:

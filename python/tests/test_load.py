@@ -57,6 +57,9 @@ def test_overrides_pass_the_files_checks():
     with pytest.raises(TypeError, match="unknown override 'spp'"):
         prism.load(CORNELL, spp=4)
     assert prism.load(CORNELL, integrator="bdpt").integrator == "bdpt"
+    # Pairs as TOML writes them (lists) or as arrays do too.
+    assert prism.load(CORNELL, resolution=[40, 30]).resolution == (40, 30)
+    assert prism.load(CORNELL, resolution=np.array([40, 30])).resolution == (40, 30)
 
 
 def test_with_updates_shares_the_geometry_when_only_materials_change(cornell):
