@@ -445,7 +445,7 @@ def render(
     finally:
         if bar is not None:
             bar.close()
-    return Image(native, scene)
+    return Image(native)
 
 
 class Image:
@@ -454,10 +454,9 @@ class Image:
     Arrays are made once, on first use, from a copy of the film.
     """
 
-    def __init__(self, native: "_native.NativeImage", scene: Optional[Scene] = None):
+    def __init__(self, native: "_native.NativeImage"):
         """Made by `render` and `read`."""
         self._native = native
-        self._scene = scene
         self._cache: dict = {}
 
     def _array(self, name: str) -> Optional[np.ndarray]:

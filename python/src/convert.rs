@@ -30,7 +30,8 @@ pub fn parse_toml<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny
     to_python(py, &toml::Value::Table(table))
 }
 
-fn to_value(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
+/// The TOML value of a Python value; errors name `key`.
+pub fn to_value(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
     let at = |what: &str| {
         SceneError::new_err(format!(
             "<dict>: `{}`: {what}",

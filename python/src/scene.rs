@@ -88,13 +88,12 @@ pub fn load_file(
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<NativeScene> {
     let overrides = overrides_of(&Overrides::default(), overrides)?;
+    // Read once: kept to load again with other values (`reload`).
+    let text = prism::load::read_scene_file(&path).map_err(scene_error)?;
+    let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let loaded = py
-        .detach(|| prism::load::load_with(&path, &overrides))
+        .detach(|| prism::load::load_text(&text, &path, &base, &overrides, None))
         .map_err(scene_error)?;
-    // The loader read it: the text is there to read again.
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| SceneError::new_err(format!("{}: {e}", path.display())))?;
-    let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
     Ok(NativeScene {
         loaded: Arc::new(loaded),
         text: Arc::new(text),
@@ -398,15 +397,7 @@ pub fn spectrum_values(
     role: &str,
     base: Option<PathBuf>,
 ) -> PyResult<Vec<f32>> {
-    let wrapped = PyDict::new(value.py());
-    wrapped.set_item("spectrum", value)?;
-    let text = crate::convert::to_toml(wrapped.as_any())?;
-    let table: toml::Table =
-        toml::from_str(&text).map_err(|e| SceneError::new_err(format!("<spectrum>: {e}")))?;
-    let value = table
-        .get("spectrum")
-        .cloned()
-        .ok_or_else(|| SceneError::new_err("<spectrum>: no value"))?;
+    let value = crate::convert::to_value(value, "spectrum")?;
     let base = base.unwrap_or_default();
     let s = prism::load::spectrum(value, role, &base, "spectrum").map_err(scene_error)?;
     Ok(wavelengths.iter().map(|&l| s.eval(l)).collect())

@@ -36,11 +36,6 @@ impl ProgressCounts {
     pub fn total(&self) -> u64 {
         self.total.load(Ordering::Relaxed)
     }
-
-    /// Whether the render has ended.
-    pub fn finished(&self) -> bool {
-        self.finished.load(Ordering::Relaxed)
-    }
 }
 
 impl Progress {

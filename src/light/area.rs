@@ -48,7 +48,6 @@ impl AreaLight {
         }
     }
 
-    /// The light of a cut-out material's triangle.
     /// The same triangle sending out `emitter`.
     pub fn with_emitter(&self, emitter: Arc<Emitter>, two_sided: bool) -> Self {
         Self {
@@ -58,6 +57,7 @@ impl AreaLight {
         }
     }
 
+    /// The light of a cut-out material's triangle.
     pub fn with_cutout(self, cutout: Arc<Cutout>) -> Self {
         Self {
             cutout: Some(cutout),

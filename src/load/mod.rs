@@ -173,6 +173,13 @@ pub fn load(path: &Path) -> Result<Loaded, SceneError> {
 
 /// Loads a scene file with some of its values replaced.
 pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Loaded, SceneError> {
+    let text = read_scene_file(path)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    load_text(&text, path, base, overrides, None)
+}
+
+/// The text of a scene file (within the input limits), or an error naming it.
+pub fn read_scene_file(path: &Path) -> Result<String, SceneError> {
     let err = |message: String| SceneError {
         file: path.to_path_buf(),
         message,
@@ -180,15 +187,7 @@ pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Loaded, SceneErro
     if path.is_dir() {
         return Err(err("is a directory, not a scene file".into()));
     }
-    let (scene, inputs) = crate::input::recording(|| {
-        let text =
-            crate::input::read_to_string(path).map_err(|e| err(format!("the scene file: {e}")))?;
-        let base = path.parent().unwrap_or(Path::new("."));
-        Loader::new(path.to_path_buf(), base.to_path_buf()).load(&text, overrides, None)
-    });
-    let mut loaded = scene?;
-    loaded.report.inputs = inputs;
-    Ok(loaded)
+    crate::input::read_to_string(path).map_err(|e| err(format!("the scene file: {e}")))
 }
 
 /// Loads a scene from TOML text; `base` is the folder relative paths start from.

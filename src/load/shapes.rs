@@ -82,7 +82,7 @@ impl Loader {
                             mesh,
                             material: material.unwrap_or(m.unwrap_or(default_material)),
                             emission: emission.clone().or(e),
-                            emission_of: emission.is_some().then_some(i as u32),
+                            emission_of,
                         });
                     }
                 }
