@@ -262,7 +262,8 @@ impl TextureRef {
     }
 }
 
-/// Decodes an image (format guessed from the content) after checking its
+/// Decodes an image (format guessed from the content: PNG, JPEG, Radiance
+/// HDR, BMP, or else TGA) after checking its
 /// declared size against the memory budget: the decoder's buffer (counted
 /// three times over, for decoders' working copies such as a progressive
 /// JPEG's coefficients), `scratch` bytes a texel that the caller uses
@@ -274,6 +275,11 @@ pub fn decode_image(bytes: &[u8], scratch: u64, held: u64) -> Result<image::Dyna
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot decode: {e}"))?;
+    if reader.format().is_none() {
+        // TGA has no signature: bytes that no signature matches are tried
+        // as TGA (whose header check refuses most else).
+        reader.set_format(image::ImageFormat::Tga);
+    }
     let mut limits = image::Limits::no_limits();
     limits.max_alloc = Some(memory::limit().0);
     reader.limits(limits);

@@ -7,6 +7,7 @@
 mod common;
 
 mod aov;
+mod assets;
 mod bdpt;
 mod bsdf;
 mod camera;

@@ -107,6 +107,12 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     if job.overrides.no_spectral && partial {
         bail!("--samples and --tile write a partial spectral EXR for `prism merge`: drop --no-spectral");
     }
+    // A named output folder is checked before the scene loads (a large
+    // asset can take a while), and again before rendering.
+    let stem = output_stem(&job.scene, job.output.clone());
+    if job.output.is_some() {
+        check_writable(&stem)?;
+    }
     let load_start = Instant::now();
     let loaded = load::load_with(&job.scene, &job.overrides)?;
     for w in &loaded.report.warnings {
@@ -126,7 +132,6 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     crate::memory::check("the render", estimate.total())
         .map_err(|e| anyhow::anyhow!("{e} ({parts}): use fewer pixels or spectral buckets"))?;
 
-    let stem = output_stem(&job.scene, job.output.clone());
     check_writable(&stem)?;
     report_stale_temporaries(&stem);
     options.after_pass = pass_hooks(job, &stem, &settings.film);

@@ -21,6 +21,8 @@ pub struct DielectricLobe {
     /// Multiplies transmission at each crossing (glTF's base colour on a
     /// transmissive material); 1 for clear glass.
     tint: SampledSpectrum,
+    /// η = 1 at every wavelength (an index-matched boundary).
+    index_matched: bool,
 }
 
 /// Refracts `wi` through a surface with normal `n` (either side) and relative
@@ -54,11 +56,13 @@ impl DielectricLobe {
     /// (spectral MIS must not average over terminated ones).
     pub fn new(eta: SampledSpectrum, alpha: f32, secondaries_alive: bool) -> Self {
         let ggx = Ggx::new(alpha);
+        let index_matched = eta.to_array().iter().all(|&e| (e - 1.0).abs() <= 1e-6);
         Self {
             eta,
             ggx,
             spectral_mis: is_dispersive(eta) && !ggx.is_smooth() && secondaries_alive,
             tint: SampledSpectrum::ONE,
+            index_matched,
         }
     }
 
@@ -69,8 +73,11 @@ impl DielectricLobe {
         self
     }
 
+    /// Smooth, or index-matched: at η = 1 no microfacet bends light, so
+    /// however rough the surface, light passes straight through (Fresnel
+    /// reflects nothing) and only the tint acts.
     pub fn is_specular(&self) -> bool {
-        self.ggx.is_smooth()
+        self.ggx.is_smooth() || self.index_matched
     }
 
     pub fn flags(&self) -> BsdfFlags {

@@ -145,6 +145,14 @@ impl OpaqueTexels {
         let metallic = self.pbr.metallic * t.linear(uv).z;
         (self.transmission * (1.0 - metallic) < 0.5).then_some(&self.pbr)
     }
+
+    /// The glass's microfacet α at `uv`: roughnessFactor × the texture's
+    /// green channel, as glTF defines roughness for every texel.
+    fn alpha_at(&self, uv: Vec2) -> Option<f32> {
+        let t = self.pbr.metallic_roughness.as_ref()?;
+        let roughness = (self.pbr.roughness * t.linear(uv).y).clamp(0.0, 1.0);
+        Some(microfacet::alpha_from_roughness(roughness))
+    }
 }
 
 /// A tangent-space normal map (glTF convention: +Y up, MikkTSpace tangents).
@@ -175,7 +183,8 @@ pub enum Material {
         priority: i32,
         medium: Option<Box<Medium>>,
         tint: Option<Box<Reflectance>>,
-        /// glTF: texels that the metalness texture makes opaque.
+        /// glTF: the metallic-roughness texture, which makes metal texels
+        /// opaque and gives every texel its roughness.
         opaque: Option<Box<OpaqueTexels>>,
     },
     /// An index-matched boundary around a medium (fog, smoke): rays cross
@@ -324,14 +333,23 @@ impl Material {
             Material::Dielectric {
                 opaque: Some(o), ..
             } if o.at(uv).is_some() => pbr_bsdf(&o.pbr, geom, uv, wl),
-            Material::Dielectric { alpha, tint, .. } => {
+            Material::Dielectric {
+                alpha,
+                tint,
+                opaque,
+                ..
+            } => {
+                let alpha = opaque
+                    .as_ref()
+                    .and_then(|o| o.alpha_at(uv))
+                    .unwrap_or(*alpha);
                 // The frame's +z points outside: `eta` is inside / outside.
                 let ns = if geom.ns.dot(geom.ng) < 0.0 {
                     -geom.ns
                 } else {
                     geom.ns
                 };
-                let mut lobe = DielectricLobe::new(eta, *alpha, !wl.secondary_terminated());
+                let mut lobe = DielectricLobe::new(eta, alpha, !wl.secondary_terminated());
                 if let Some(t) = tint {
                     lobe = lobe.tinted(
                         t.sample(uv, wl)

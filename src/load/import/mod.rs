@@ -116,6 +116,23 @@ impl TextureCache {
 /// Splits every vertex per triangle corner and fills in MikkTSpace tangents
 /// (the glTF convention for normal maps). The mesh needs texture
 /// coordinates; missing normals are taken as the flat face normals.
+/// Smooth vertex normals: each the sum of its triangles' normals weighted
+/// by their areas (the cross product's length), normalised; a vertex of
+/// degenerate triangles only gets its neighbours' direction or +z.
+pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
+    let mut sums = vec![Vec3::ZERO; mesh.positions.len()];
+    for t in &mesh.indices {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            sums[i as usize] += n;
+        }
+    }
+    sums.into_iter()
+        .map(|n| n.try_normalize().unwrap_or(Vec3::Z))
+        .collect()
+}
+
 pub fn generate_tangents(mesh: &mut Mesh) -> Result<(), String> {
     let uvs = mesh.uvs.as_ref().ok_or("no texture coordinates")?;
     let mut corners = Corners {

@@ -7,10 +7,13 @@
 //!
 //! MTL → prism:
 //! - `Ke` (and `map_Ke`) → emission, RGB relative to D65 as in scene files;
-//! - illum 4, 6, 7 or 9 (glass models), or dissolve `d` < 1 (`Tr` > 0)
-//!   together with an index `Ni` > 1 → dielectric with index `Ni` (default
-//!   1.5), roughness from `Ns`;
-//! - illum 3 (mirror/ray-traced reflection) → metal with colour `Ks`;
+//! - illum 6 or 7 (refraction) → dielectric with index `Ni` (1.5 unless
+//!   `Ni` > 1), roughness from `Ns`; illum 4 or 9 (glass models), or
+//!   dissolve `d` < 1 (`Tr` > 0), → the same, only with an index `Ni` > 1
+//!   (else illum 2, noted: Maya writes `illum 4` and `Ni 1.00` everywhere);
+//! - illum 3, 5 or 8 (reflection) → a Fresnel mirror: metal with colour
+//!   `Ks` (`Kd` × `map_Kd` where `Ks` is black);
+//! - illum above 9 → illum 2, noted;
 //! - `Ks` > 0 otherwise → glTF-style plastic: diffuse `Kd` × `map_Kd` under
 //!   a GGX coat of index `Ni` (default 1.5), roughness from `Ns`;
 //! - otherwise → Lambertian `Kd` × `map_Kd` (default Kd 0.8, as Blender).
@@ -61,16 +64,23 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     let geometry = super::obj_text::parse(&bytes)?;
     drop(bytes);
     let mut asset = Asset::default();
-    let mut mtl_materials: Vec<tobj::Material> = Vec::new();
+    if let Some(warning) = &geometry.broken_normal {
+        asset
+            .warnings
+            .push(format!("{}: {warning}", path.display()));
+    }
+    // Each material with the library file it came from.
+    let mut mtl_materials: Vec<(tobj::Material, PathBuf)> = Vec::new();
     let mut by_name: std::collections::HashMap<String, usize> = Default::default();
-    let mut mtl_dir = base.clone();
     // Values of the MTL files that were out of range, by material.
     let mut value_warnings: std::collections::HashMap<String, Vec<String>> = Default::default();
-    for (k, library) in geometry.material_libraries.iter().enumerate() {
+    let libraries: Vec<String> = geometry
+        .material_libraries
+        .iter()
+        .flat_map(|line| library_names(&base, line))
+        .collect();
+    for library in &libraries {
         let full = base.join(library);
-        if k == 0 {
-            mtl_dir = full.parent().unwrap_or(&base).to_path_buf();
-        }
         let read = crate::input::read(&full).and_then(|text| {
             let checked = check_mtl_values(&String::from_utf8_lossy(&text), &full);
             tobj::load_mtl_buf(&mut std::io::Cursor::new(text))
@@ -84,7 +94,7 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
                 }
                 for m in materials {
                     by_name.insert(m.name.clone(), mtl_materials.len());
-                    mtl_materials.push(m);
+                    mtl_materials.push((m, full.clone()));
                 }
             }
             Err(why) => asset.warnings.push(format!(
@@ -96,12 +106,12 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     // Each material's warnings and unmapped features, reported only for
     // the materials that faces use.
     let mut said: Vec<(Vec<String>, Vec<String>)> = Vec::new();
-    for m in &mtl_materials {
+    for (m, library) in &mtl_materials {
         let (mut warnings, mut ignored) = (Vec::new(), Vec::new());
         warnings.extend(value_warnings.remove(&m.name).unwrap_or_default());
         asset
             .materials
-            .push(material(m, &mtl_dir, textures, &mut warnings, &mut ignored));
+            .push(material(m, library, textures, &mut warnings, &mut ignored));
         said.push((warnings, ignored));
     }
 
@@ -132,6 +142,32 @@ pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<As
     ignored.dedup();
     asset.ignored = ignored;
     Ok(asset)
+}
+
+/// The files an `mtllib` line names: the whole line where a file has that
+/// name (some exporters write names with spaces), otherwise its words,
+/// where `\ ` is a space within a name.
+fn library_names(base: &Path, line: &str) -> Vec<String> {
+    if base.join(line).is_file() {
+        return vec![line.to_string()];
+    }
+    let mut names = vec![String::new()];
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '\\' if chars.peek().is_some_and(|n| n.is_whitespace()) => {
+                names.last_mut().unwrap().push(chars.next().unwrap());
+            }
+            c if c.is_whitespace() => {
+                if !names.last().unwrap().is_empty() {
+                    names.push(String::new());
+                }
+            }
+            c => names.last_mut().unwrap().push(c),
+        }
+    }
+    names.retain(|n| !n.is_empty());
+    names
 }
 
 /// A piece of the OBJ as a mesh: polygons triangulated in their own
@@ -171,6 +207,9 @@ fn piece(
     if mesh.indices.is_empty() {
         return Ok(None);
     }
+    if p.broken_normals && smooth {
+        mesh.normals = Some(super::vertex_normals(&mesh));
+    }
     Ok(Some(Piece {
         mesh,
         material,
@@ -191,12 +230,13 @@ fn texture(
         Found::Exact(path) => path,
         Found::IgnoringCase(path) => {
             warnings.push(format!(
-                "texture `{name}` not found as written; using {} (the name differs in case)",
+                "texture {} not found as written; using {} (the name differs in case)",
+                dir.join(file_name_of(name)).display(),
                 path.display()
             ));
             path
         }
-        Found::Missing => dir.join(name),
+        Found::Missing => dir.join(file_name_of(name)),
     };
     match textures.file(&path, encoding) {
         Ok(t) => Some(TextureRef::new(t)),
@@ -214,6 +254,16 @@ enum Found {
     /// Windows or macOS, whose file systems ignore it).
     IgnoringCase(PathBuf),
     Missing,
+}
+
+/// The file an MTL texture statement names: its last word (options such as
+/// `-s 1 1 1` come first), with `/` between directories.
+fn file_name_of(statement: &str) -> String {
+    statement
+        .split_whitespace()
+        .last()
+        .unwrap_or(statement)
+        .replace('\\', "/")
 }
 
 /// Finds the texture `name` relative to `dir`: options such as `-s 1 1 1`
@@ -329,13 +379,16 @@ const IOR_RANGE: std::ops::RangeInclusive<f32> = 1.0..=10.0;
 /// The brightest MTL emission accepted (the scene file's limit).
 const MAX_EMISSION: f32 = 1e30;
 
+/// One MTL material (from the library file `library`; its textures are
+/// relative to that file).
 fn material(
     m: &tobj::Material,
-    dir: &Path,
+    library: &Path,
     textures: &mut TextureCache,
     warnings: &mut Vec<String>,
     ignored: &mut Vec<String>,
 ) -> AssetMaterial {
+    let dir = library.parent().unwrap_or(Path::new("."));
     // Not finite: the default; below zero: zero (`check_mtl_values` warns).
     let rgb = |c: Option<[f32; 3]>| {
         c.map(Vec3::from)
@@ -349,7 +402,8 @@ fn material(
     // ambient colour: say so, or the scene renders dark without a word.
     if rgb(m.ambient).is_some_and(|ka| ka.max_element() > 1.0) && ke == Vec3::ZERO {
         warnings.push(format!(
-            "material `{}` has an ambient colour Ka above 1 and no Ke: if it is meant to be a light, give it Ke (Ka is not light)",
+            "{}: material `{}` has an ambient colour Ka above 1 and no Ke: if it is meant to be a light, give it Ke (Ka is not light)",
+            library.display(),
             m.name
         ));
     }
@@ -364,8 +418,24 @@ fn material(
         .get("Tr")
         .and_then(|t| t.trim().parse::<f32>().ok());
     let see_through = m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0);
-    let glass = matches!(illum, 4 | 6 | 7 | 9) || (see_through && ni.is_some_and(|n| n > 1.0));
+    let refracts = ni.is_some_and(|n| n > 1.0);
     let mut note = |what: &str| ignored.push(format!("{what} (material `{}`)", m.name));
+    // The illumination models as renderers read them: 6 and 7 are
+    // refraction (glass, Ni or 1.5); 4 and 9 are glass only with an index
+    // above 1 (Maya writes `illum 4` and `Ni 1.00` on every material);
+    // 3, 5 and 8 are reflection (a Fresnel mirror).
+    let glass = matches!(illum, 6 | 7) || ((matches!(illum, 4 | 9) || see_through) && refracts);
+    let mirror = matches!(illum, 3 | 5 | 8);
+    match illum {
+        4 | 9 if !refracts => note(&format!(
+            "illum {illum} without an index Ni above 1 (not glass: shaded as illum 2)"
+        )),
+        6 | 7 if ni.is_some() && !refracts => {
+            note(&format!("illum {illum} with Ni ≤ 1 (glass of index 1.5)"))
+        }
+        0..=9 => {}
+        _ => note(&format!("illum {illum} (shaded as illum 2)")),
+    }
     // Tf r g b on glass: the colour light keeps after one unit of path
     // inside (a filter), as an absorbing medium; elsewhere it means nothing.
     let filter = m.unknown_param.get("Tf").and_then(|t| parse_filter(t));
@@ -382,6 +452,13 @@ fn material(
         }
     }
 
+    // A black Kd beside map_Kd is how Maya writes a textured colour (the
+    // colour attribute is connected): the texture alone, as Blender reads it.
+    let kd = if kd == Vec3::ZERO && m.diffuse_texture.is_some() {
+        Vec3::ONE
+    } else {
+        kd
+    };
     let mut diffuse = || Reflectance {
         factor: Spectrum::rgb_reflectance(kd),
         texture: texture(
@@ -394,7 +471,7 @@ fn material(
     };
     let material = match illum {
         _ if glass => Material::Dielectric {
-            ior: Ior::Constant(ni.unwrap_or(1.5)),
+            ior: Ior::Constant(ni.filter(|&n| n > 1.0).unwrap_or(1.5)),
             alpha: crate::material::microfacet::alpha_from_roughness(roughness),
             priority: 0,
             medium: filter
@@ -403,8 +480,13 @@ fn material(
             tint: None,
             opaque: None,
         },
-        3 => Material::Pbr(Box::new(PbrMaterial {
-            base_color: Spectrum::rgb_reflectance(ks).into(),
+        _ if mirror => Material::Pbr(Box::new(PbrMaterial {
+            // A mirror without Ks takes Kd (× map_Kd), not black.
+            base_color: if ks.max_element() > 0.0 {
+                Spectrum::rgb_reflectance(ks).into()
+            } else {
+                diffuse()
+            },
             metallic: 1.0,
             roughness,
             metallic_roughness: None,

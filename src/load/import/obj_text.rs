@@ -31,6 +31,8 @@ pub struct ObjPiece {
     pub corners: Vec<u32>,
     /// Corners per face (3 or more).
     pub arities: Vec<u32>,
+    /// Some corner names a normal that does not exist.
+    pub broken_normals: bool,
 }
 
 /// What an OBJ file holds: its pieces in file order and the material
@@ -39,6 +41,8 @@ pub struct ObjPiece {
 pub struct ObjGeometry {
     pub pieces: Vec<ObjPiece>,
     pub material_libraries: Vec<String>,
+    /// The first face corner naming a `vn` line that does not exist.
+    pub broken_normal: Option<String>,
 }
 
 /// Chunks are cut no smaller than this, so that small files stay whole.
@@ -46,6 +50,10 @@ const MIN_CHUNK: usize = 1 << 20;
 
 /// No corner attribute (texture coordinate or normal).
 const NONE: u32 = u32::MAX;
+
+/// A corner normal index beyond the file's `vn` lines (the piece's normals
+/// are computed instead).
+const BROKEN: u32 = u32::MAX - 2;
 
 /// Parses OBJ text. Errors name the line.
 pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
@@ -134,6 +142,15 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
         normals: &normals,
     };
     geometry.pieces = plans.into_par_iter().map(|p| sources.piece(p)).collect();
+    geometry.broken_normal =
+        read.iter()
+            .find_map(|c| c.broken_normal)
+            .map(|(line, index, total)| {
+                format!(
+                    "line {line}: normal index {index} is out of range (the file has {total}); \
+                 the normals of the faces that name missing ones are computed"
+                )
+            });
     Ok(geometry)
 }
 
@@ -186,6 +203,9 @@ struct Chunk {
     statements: Vec<(usize, Statement)>,
     /// The first error: line within the chunk (1-based) and message.
     error: Option<(usize, String)>,
+    /// The first corner whose normal index is out of range: its line in
+    /// the file, the index as written and the file's count.
+    broken_normal: Option<(usize, i64, usize)>,
 }
 
 impl Chunk {
@@ -301,6 +321,14 @@ impl Chunk {
                         i if i > 0 => i - 1,
                         i => (before[a + 1] + seen[a] as usize) as i64 + i,
                     };
+                    if (index < 0 || index as usize >= total) && a == 2 {
+                        // Other loaders accept such files: warn, and
+                        // compute the piece's normals.
+                        self.broken_normal
+                            .get_or_insert((before[0] + line, corner[a], total));
+                        out[a] = BROKEN;
+                        continue;
+                    }
                     if index < 0 || index as usize >= total {
                         let what = ["vertex", "texture coordinate", "normal"][a];
                         return Err(format!(
@@ -433,7 +461,8 @@ impl Sources<'_> {
             .collect();
         let all = || corner_ranges.iter().flat_map(|r| r.1.iter());
         let with_uv = all().all(|c| c[1] != NONE);
-        let with_normal = all().all(|c| c[2] != NONE);
+        let with_normal = all().all(|c| c[2] != NONE && c[2] != BROKEN);
+        let broken_normals = all().any(|c| c[2] == BROKEN);
         let key = |c: &[u32; 3]| {
             [
                 c[0],
@@ -490,6 +519,7 @@ impl Sources<'_> {
                 .iter()
                 .flat_map(|r| r.0.iter().copied())
                 .collect(),
+            broken_normals,
         }
     }
 }

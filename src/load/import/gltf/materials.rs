@@ -50,7 +50,11 @@ impl UvTransform {
     /// only for the core slots). Entries absent or not numbers keep their
     /// defaults.
     fn from_json(info: &gltf::json::Value) -> Option<Self> {
-        let t = info.get("extensions")?.get("KHR_texture_transform")?;
+        Self::from_extension(info.get("extensions")?.get("KHR_texture_transform")?)
+    }
+
+    /// The transform from the extension's own object.
+    fn from_extension(t: &gltf::json::Value) -> Option<Self> {
         let pair = |key: &str, default: [f32; 2]| {
             t.get(key)
                 .and_then(|v| v.as_array())
@@ -85,9 +89,9 @@ impl Context<'_> {
         encoding: Encoding,
         slot: &str,
     ) -> Option<TextureRef> {
-        if tex_coord != 0 || transform.and_then(|t| t.tex_coord).unwrap_or(0) != 0 {
-            self.ignored
-                .insert(format!("texture coordinate sets other than 0 ({slot})"));
+        let set = transform.and_then(|t| t.tex_coord).unwrap_or(tex_coord);
+        if !self.slot_sets.iter().any(|(s, _)| s == slot) {
+            self.slot_sets.push((slot.to_string(), set));
         }
         let sampler = texture.sampler();
         let wrap = [wrap_mode(sampler.wrap_s()), wrap_mode(sampler.wrap_t())];
@@ -130,6 +134,14 @@ impl Context<'_> {
                 None
             }
         }
+    }
+
+    /// KHR_texture_transform on a material's normalTexture (the crate
+    /// reads it only for texture infos).
+    fn normal_texture_transform(&self, m: &gltf::Material) -> Option<UvTransform> {
+        let json = self.document.as_json().materials.get(m.index()?)?;
+        let others = &json.normal_texture.as_ref()?.extensions.as_ref()?.others;
+        UvTransform::from_extension(others.get("KHR_texture_transform")?)
     }
 
     /// KHR_materials_volume's attenuation as an absorbing medium (per
@@ -301,10 +313,11 @@ impl Context<'_> {
         });
         let normal_map = m.normal_texture().and_then(|n| {
             let scale = n.scale();
+            let transform = self.normal_texture_transform(m);
             self.texture(
                 n.texture(),
                 n.tex_coord(),
-                None,
+                transform,
                 Encoding::Linear,
                 "normalTexture",
             )

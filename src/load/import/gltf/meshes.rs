@@ -3,6 +3,7 @@
 use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
+use super::attributes::{DracoPrimitive, Source};
 use super::validate::{check_accessor, check_index_accessor, check_layout};
 use super::{Context, MAX_NODE_DEPTH};
 use crate::load::import::{generate_tangents, Asset, AssetCamera, Piece};
@@ -73,11 +74,12 @@ impl Context<'_> {
                 .map_or(format!("mesh{}", mesh.index()), str::to_string);
             for primitive in mesh.primitives() {
                 let what = format!("mesh `{name}` primitive {}", primitive.index());
-                let Some(mut piece) = self.primitive(&primitive, &what)? else {
+                let material = primitive.material().index().unwrap_or(default_material);
+                let uv_set = self.uv_sets.get(material).copied().unwrap_or(0);
+                let Some(mut piece) = self.primitive(&primitive, &what, uv_set)? else {
                     continue;
                 };
                 piece.transform(&world);
-                let material = primitive.material().index().unwrap_or(default_material);
                 let needs_tangents = matches!(
                     &asset.materials[material].material,
                     Material::Pbr(m) if m.normal_map.is_some()
@@ -105,56 +107,45 @@ impl Context<'_> {
         Ok(())
     }
 
-    /// One primitive's triangles, or `None` for points and lines.
+    /// One primitive's triangles, or `None` for points and lines. Its
+    /// texture coordinates are set `uv_set` (the one its material's
+    /// textures use).
     pub(super) fn primitive(
         &mut self,
         p: &gltf::Primitive,
         what: &str,
+        uv_set: u32,
     ) -> Result<Option<Mesh>, String> {
-        // The crate's reader trusts an accessor's element type and layout;
-        // they are checked first. Broken required data is an error, broken
-        // optional data a warning.
-        let buffers = self.buffers;
-        let mut usable = |semantic: gltf::Semantic, required: bool| -> Result<bool, String> {
-            let Some(accessor) = p.get(&semantic) else {
-                return Ok(false);
-            };
-            let checked = check_accessor(&accessor, &semantic)
-                .and_then(|()| check_layout(&accessor, &semantic.to_string(), buffers));
-            match checked {
-                Ok(()) => Ok(true),
-                Err(e) if required => Err(format!("{what}: {e}")),
-                Err(e) => {
-                    self.warnings
-                        .push(format!("{}: {what}: {e}; not used", self.file));
-                    Ok(false)
-                }
-            }
+        let uv_semantic = gltf::Semantic::TexCoords(uv_set);
+        let (source, unusable) = match p.extension_value("KHR_draco_mesh_compression") {
+            Some(extension) => (
+                Source::Draco(Box::new(
+                    DracoPrimitive::decode(extension, self.document, self.buffers)
+                        .map_err(|e| format!("{what}: {e}"))?,
+                )),
+                Vec::new(),
+            ),
+            None => (
+                Source::Accessors(self.buffers),
+                self.check_accessors(p, what, &uv_semantic)?,
+            ),
         };
-        usable(gltf::Semantic::Positions, true)?;
-        let use_normals = usable(gltf::Semantic::Normals, false)?;
-        let use_uvs = usable(gltf::Semantic::TexCoords(0), false)?;
-        let use_tangents = usable(gltf::Semantic::Tangents, false)?;
-        if let Some(indices) = p.indices() {
-            check_index_accessor(&indices)
-                .and_then(|()| check_layout(&indices, "index", buffers))
-                .map_err(|e| format!("{what}: {e}"))?;
-        }
-        let reader = p.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+        let read = |semantic: &gltf::Semantic| !unusable.contains(semantic);
         // The checks above leave the reader nothing to refuse (validation
         // requires POSITION); should it still, that is an error, not a panic.
-        let unreadable = |attr: &str| format!("{what}: the gltf crate cannot read its {attr}");
-        let positions: Vec<Vec3> = reader
-            .read_positions()
+        let unreadable = |attr: &str| format!("{what}: the data of its {attr} cannot be read");
+        let positions: Vec<Vec3> = source
+            .rows::<3>(p, &gltf::Semantic::Positions)
             .ok_or_else(|| unreadable("POSITION"))?
+            .into_iter()
             .map(Vec3::from)
             .collect();
         let n = positions.len();
         if let Some(bad) = positions.iter().position(|v| !v.is_finite()) {
             return Err(format!("{what}: vertex {bad} is not finite"));
         }
-        let indices: Vec<u32> = match reader.read_indices() {
-            Some(i) => i.into_u32().collect(),
+        let indices: Vec<u32> = match source.indices(p) {
+            Some(i) => i,
             None if p.indices().is_some() => return Err(unreadable("indices")),
             None => (0..n as u32).collect(),
         };
@@ -203,24 +194,90 @@ impl Context<'_> {
                 true
             }
         };
-        if let Some(normals) = use_normals.then(|| reader.read_normals()).flatten() {
-            let v: Vec<Vec3> = normals.map(Vec3::from).collect();
+        let normals = gltf::Semantic::Normals;
+        if let Some(v) = read(&normals)
+            .then(|| source.rows::<3>(p, &normals))
+            .flatten()
+        {
+            // Quantised normals are unit only to within their precision.
+            let v: Vec<Vec3> = v
+                .into_iter()
+                .map(|n| Vec3::from(n).normalize_or_zero())
+                .collect();
             if attribute("NORMAL", v.len(), v.iter().all(|n| n.is_finite())) {
                 mesh.normals = Some(v);
             }
         }
-        if let Some(uvs) = use_uvs.then(|| reader.read_tex_coords(0)).flatten() {
-            let v: Vec<Vec2> = uvs.into_f32().map(Vec2::from).collect();
-            if attribute("TEXCOORD_0", v.len(), v.iter().all(|t| t.is_finite())) {
+        if let Some(v) = read(&uv_semantic)
+            .then(|| source.rows::<2>(p, &uv_semantic))
+            .flatten()
+        {
+            let v: Vec<Vec2> = v.into_iter().map(Vec2::from).collect();
+            if attribute(
+                &uv_semantic.to_string(),
+                v.len(),
+                v.iter().all(|t| t.is_finite()),
+            ) {
                 mesh.uvs = Some(v);
             }
         }
-        if let Some(tangents) = use_tangents.then(|| reader.read_tangents()).flatten() {
-            let v: Vec<Vec4> = tangents.map(Vec4::from).collect();
+        let tangents = gltf::Semantic::Tangents;
+        if let Some(v) = read(&tangents)
+            .then(|| source.rows::<4>(p, &tangents))
+            .flatten()
+        {
+            let v: Vec<Vec4> = v
+                .into_iter()
+                .map(|t| {
+                    let xyz = Vec3::new(t[0], t[1], t[2]).normalize_or_zero();
+                    xyz.extend(if t[3] < 0.0 { -1.0 } else { 1.0 })
+                })
+                .collect();
             if attribute("TANGENT", v.len(), v.iter().all(|t| t.is_finite())) {
                 mesh.tangents = Some(v);
             }
         }
         Ok(Some(mesh))
+    }
+
+    /// Checks what the crate's accessor iterators trust: each accessor's
+    /// element type and layout. Broken required data is an error, broken
+    /// optional data a warning, and returned: the primitive is read without
+    /// it.
+    fn check_accessors(
+        &mut self,
+        p: &gltf::Primitive,
+        what: &str,
+        uv_semantic: &gltf::Semantic,
+    ) -> Result<Vec<gltf::Semantic>, String> {
+        let buffers = self.buffers;
+        let mut unusable = Vec::new();
+        for (semantic, required) in [
+            (gltf::Semantic::Positions, true),
+            (gltf::Semantic::Normals, false),
+            (uv_semantic.clone(), false),
+            (gltf::Semantic::Tangents, false),
+        ] {
+            let Some(accessor) = p.get(&semantic) else {
+                continue;
+            };
+            let checked = check_accessor(&accessor, &semantic)
+                .and_then(|()| check_layout(&accessor, &semantic.to_string(), buffers));
+            match checked {
+                Ok(()) => {}
+                Err(e) if required => return Err(format!("{what}: {e}")),
+                Err(e) => {
+                    self.warnings
+                        .push(format!("{}: {what}: {e}; not used", self.file));
+                    unusable.push(semantic);
+                }
+            }
+        }
+        if let Some(indices) = p.indices() {
+            check_index_accessor(&indices)
+                .and_then(|()| check_layout(&indices, "index", buffers))
+                .map_err(|e| format!("{what}: {e}"))?;
+        }
+        Ok(unusable)
     }
 }

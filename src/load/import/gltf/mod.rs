@@ -37,6 +37,7 @@
 //! tracer computes occlusion. Cameras: perspective ones (orthographic are
 //! skipped).
 
+mod attributes;
 mod buffers;
 mod materials;
 mod meshes;
@@ -67,6 +68,14 @@ const MAPPED_EXTENSIONS: [&str; 10] = [
     "KHR_texture_transform",
 ];
 
+/// Geometry encodings that are decoded (see `meshes`).
+const DECODED_EXTENSIONS: [&str; 2] = ["KHR_mesh_quantization", "KHR_draco_mesh_compression"];
+
+/// Whether a file may require `extension`: prism maps or decodes it.
+pub(super) fn supports(extension: &str) -> bool {
+    MAPPED_EXTENSIONS.contains(&extension) || DECODED_EXTENSIONS.contains(&extension)
+}
+
 /// Deeper node trees than this are refused (they can only be cycles).
 pub(super) const MAX_NODE_DEPTH: usize = 256;
 
@@ -81,7 +90,7 @@ pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
     let mut asset = Asset::default();
     let mut ignored = BTreeSet::new();
     for ext in gltf.extensions_used() {
-        if !MAPPED_EXTENSIONS.contains(&ext) {
+        if !supports(ext) {
             ignored.insert(ext.to_string());
         }
     }
@@ -94,9 +103,13 @@ pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
         textures,
         ignored,
         warnings: Vec::new(),
+        uv_sets: Vec::new(),
+        slot_sets: Vec::new(),
     };
     for m in gltf.materials() {
         let mapped = ctx.material(&m);
+        let set = ctx.uv_set(&mapped.name);
+        ctx.uv_sets.push(set);
         asset.materials.push(mapped);
     }
     // Primitives without a material get glTF's default material.
@@ -157,4 +170,41 @@ struct Context<'a> {
     textures: &'a mut TextureCache,
     ignored: BTreeSet<String>,
     warnings: Vec<String>,
+    /// The texture coordinate set each material's textures use (by
+    /// material index), which its primitives read.
+    uv_sets: Vec<u32>,
+    /// While a material is mapped: each texture slot and the set it asks
+    /// for.
+    slot_sets: Vec<(String, u32)>,
+}
+
+impl Context<'_> {
+    /// The texture coordinate set of the material just mapped: the one its
+    /// textures ask for. A mesh carries one set to the renderer, so where
+    /// textures ask for different sets the base colour's (or the first
+    /// slot's) wins, and the others are named in a warning.
+    fn uv_set(&mut self, material: &str) -> u32 {
+        let slots = std::mem::take(&mut self.slot_sets);
+        let Some(&(_, first)) = slots
+            .iter()
+            .find(|(slot, _)| slot == "baseColorTexture")
+            .or(slots.first())
+        else {
+            return 0;
+        };
+        let others: Vec<String> = slots
+            .iter()
+            .filter(|(_, set)| *set != first)
+            .map(|(slot, set)| format!("{slot} (TEXCOORD_{set})"))
+            .collect();
+        if !others.is_empty() {
+            self.warnings.push(format!(
+                "{}: material `{material}` reads its textures through TEXCOORD_{first}; \
+                 {} ask for another set and read TEXCOORD_{first} instead",
+                self.file,
+                others.join(", ")
+            ));
+        }
+        first
+    }
 }

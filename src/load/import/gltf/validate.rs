@@ -4,24 +4,33 @@
 
 use super::describe;
 
-/// The element types the specification allows for the vertex attributes
-/// prism reads, and a stride that holds an element.
+/// The element types the specification (with KHR_mesh_quantization) allows
+/// for the vertex attributes prism reads, and a stride that holds an
+/// element.
 pub(super) fn check_accessor(a: &gltf::Accessor, semantic: &gltf::Semantic) -> Result<(), String> {
     use gltf::accessor::{DataType, Dimensions};
-    let (name, dims, types): (&str, Dimensions, &[DataType]) = match semantic {
-        gltf::Semantic::Positions => ("POSITION", Dimensions::Vec3, &[DataType::F32]),
-        gltf::Semantic::Normals => ("NORMAL", Dimensions::Vec3, &[DataType::F32]),
-        gltf::Semantic::Tangents => ("TANGENT", Dimensions::Vec4, &[DataType::F32]),
-        _ => (
-            "TEXCOORD_0",
-            Dimensions::Vec2,
-            &[DataType::F32, DataType::U8, DataType::U16],
-        ),
+    use DataType::{F32, I16, I8, U16, U8};
+    let (dims, types, normalized): (Dimensions, &[DataType], bool) = match semantic {
+        gltf::Semantic::Positions => (Dimensions::Vec3, &[F32, I8, U8, I16, U16], false),
+        // Integer directions must be normalised.
+        gltf::Semantic::Normals => (Dimensions::Vec3, &[F32, I8, I16], true),
+        gltf::Semantic::Tangents => (Dimensions::Vec4, &[F32, I8, I16], true),
+        _ => (Dimensions::Vec2, &[F32, I8, U8, I16, U16], false),
     };
-    if a.dimensions() != dims || !types.contains(&a.data_type()) {
+    let integer = a.data_type() != F32;
+    if a.dimensions() != dims
+        || !types.contains(&a.data_type())
+        || (normalized && integer && !a.normalized())
+    {
         return Err(format!(
-            "{name} accessor {} holds {:?} of {:?}, which the specification does not allow",
+            "{} accessor {} holds {}{:?} of {:?}, which the specification does not allow",
+            semantic.to_string(),
             a.index(),
+            if integer && a.normalized() {
+                "normalised "
+            } else {
+                ""
+            },
             a.dimensions(),
             a.data_type()
         ));
@@ -149,9 +158,23 @@ pub(super) fn validate(json: &gltf::json::Root) -> Result<(), String> {
             }
         }
     }
+    check_required_extensions(&json.extensions_required)?;
+    // The crate judges extensionsRequired by the features compiled into
+    // it; prism judges it by what it maps (above).
     let mut errors = Vec::new();
+    // Draco-compressed primitives' accessors have no buffer view: their
+    // data is in the stream.
+    let draco = json
+        .extensions_used
+        .iter()
+        .any(|e| e == "KHR_draco_mesh_compression");
     json.validate(json, gltf::json::Path::new, &mut |path, error| {
-        errors.push((path(), error))
+        let path = path();
+        let p = path.as_str();
+        let viewless = draco && p.starts_with("accessors[") && p.ends_with("].bufferView");
+        if !p.starts_with("extensionsRequired") && !viewless {
+            errors.push((path, error))
+        }
     });
     if !errors.is_empty() {
         return Err(describe(gltf::Error::Validation(errors)));
@@ -189,4 +212,40 @@ pub(super) fn validate(json: &gltf::json::Root) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Refuses a file that requires an extension prism cannot honour, naming
+/// it; extensions prism maps or decodes pass.
+fn check_required_extensions(required: &[String]) -> Result<(), String> {
+    let unsupported: Vec<&str> = required
+        .iter()
+        .map(String::as_str)
+        .filter(|e| !super::supports(e))
+        .collect();
+    if unsupported.is_empty() {
+        return Ok(());
+    }
+    let why = |e: &str| match e {
+        "EXT_meshopt_compression" => {
+            " (meshoptimizer-compressed buffers: decompress with `gltfpack -noq` or \
+             `gltf-transform copy`)"
+        }
+        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+            " (a texture format prism does not decode)"
+        }
+        _ => "",
+    };
+    let list: Vec<String> = unsupported
+        .iter()
+        .map(|e| format!("{e}{}", why(e)))
+        .collect();
+    Err(format!(
+        "the file requires {} that prism does not support: {}",
+        if list.len() == 1 {
+            "an extension"
+        } else {
+            "extensions"
+        },
+        list.join(", ")
+    ))
 }
