@@ -25,6 +25,9 @@ const FALLBACK_LIMIT: u64 = 16 << 30;
 thread_local! {
     /// While `tallying`: the budget and what is held against it so far.
     static TALLY: Cell<Option<(u64, u64)>> = const { Cell::new(None) };
+    /// While `tallying`: the most held at once, counting what `check`
+    /// allowed briefly on top (decoders' buffers).
+    static PEAK: Cell<u64> = const { Cell::new(0) };
 }
 
 /// Sets the budget for the rest of the process (`--max-memory`).
@@ -140,7 +143,9 @@ pub fn tallying<T>(budget: Option<u64>, f: impl FnOnce() -> T) -> (T, u64) {
         None => limit().0,
     });
     TALLY.with(|t| t.set(Some((limit, 0))));
+    let outer_peak = PEAK.with(|p| p.replace(0));
     let result = f();
+    PEAK.with(|p| p.set(outer_peak.max(p.get())));
     let (_, held) = TALLY.with(|t| t.replace(outer)).expect("tally set above");
     TALLY.with(|t| {
         if let Some((limit, outer_held)) = outer {
@@ -148,6 +153,12 @@ pub fn tallying<T>(budget: Option<u64>, f: impl FnOnce() -> T) -> (T, u64) {
         }
     });
     (result, held)
+}
+
+/// The most the current tally has held at once, with what `check` let
+/// callers use briefly on top.
+pub fn peak() -> u64 {
+    PEAK.with(Cell::get).max(held())
 }
 
 /// What the current tally holds (0 outside one).
@@ -173,6 +184,7 @@ pub fn check(what: &str, bytes: u64) -> Result<(), String> {
     let (process_limit, source) = limit();
     let (limit, held) = TALLY.with(Cell::get).unwrap_or((process_limit, 0));
     if held.saturating_add(bytes) <= limit {
+        PEAK.with(|p| p.set(p.get().max(held.saturating_add(bytes))));
         return Ok(());
     }
     let already = if held > 0 {

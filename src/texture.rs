@@ -265,8 +265,8 @@ impl TextureRef {
 /// Decodes an image (format guessed from the content: PNG, JPEG, Radiance
 /// HDR, BMP, or else TGA) after checking its
 /// declared size against the memory budget: the decoder's buffer (counted
-/// three times over, for decoders' working copies such as a progressive
-/// JPEG's coefficients), `scratch` bytes a texel that the caller uses
+/// three times over for JPEG, whose progressive decoder keeps its
+/// coefficients), `scratch` bytes a texel that the caller uses
 /// briefly, and `held` bytes a texel that it keeps. A 64 KB file declaring
 /// 23000×23000 texels is refused here, before anything is allocated.
 pub fn decode_image(bytes: &[u8], scratch: u64, held: u64) -> Result<image::DynamicImage, String> {
@@ -280,6 +280,13 @@ pub fn decode_image(bytes: &[u8], scratch: u64, held: u64) -> Result<image::Dyna
         // as TGA (whose header check refuses most else).
         reader.set_format(image::ImageFormat::Tga);
     }
+    // A progressive JPEG's decoder keeps working copies (its coefficients)
+    // beside the image: its buffer counts three times over.
+    let copies = if reader.format() == Some(image::ImageFormat::Jpeg) {
+        3
+    } else {
+        1
+    };
     let mut limits = image::Limits::no_limits();
     limits.max_alloc = Some(memory::limit().0);
     reader.limits(limits);
@@ -294,7 +301,7 @@ pub fn decode_image(bytes: &[u8], scratch: u64, held: u64) -> Result<image::Dyna
     memory::check(
         &what,
         decoded
-            .saturating_mul(3)
+            .saturating_mul(copies)
             .saturating_add(texels.saturating_mul(scratch + held)),
     )?;
     memory::hold(&what, texels * held)?;

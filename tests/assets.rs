@@ -302,3 +302,46 @@ fn obj_normals_that_do_not_exist_are_computed_with_a_warning() {
         h.ng
     );
 }
+
+/// glTF's `doubleSided = false`: the camera does not see a single-sided
+/// surface's back face (the top right quad shows the sky behind it); the
+/// mirrored quad keeps its front face, and the double-sided one is seen
+/// from behind. Path tracing and bdpt (whose light paths reach the camera
+/// by connections) agree.
+#[test]
+fn single_sided_gltf_surfaces_are_not_seen_from_behind() {
+    for integrator in ["path", "bdpt"] {
+        let text = format!(
+            "[camera]\nposition = [0, -1.5, 9]\nlook_at = [0, -1.5, 0]\nfov = 40\n\
+             [film]\nresolution = [32, 32]\nspp = 64\n\
+             [integrator]\ntype = \"{integrator}\"\n\
+             [environment]\nradiance = 1\n\
+             [[shape]]\ntype = \"gltf\"\nfile = \"single_sided.gltf\"\n"
+        );
+        let s = load_str(&text, &assets()).unwrap();
+        let film = crate::common::render_film(&s, 2);
+        // Quad centres at pixels (9, 9), (23, 9), (9, 23) and (23, 23).
+        let at = |x: u32, y: u32| crate::common::region_mean(&film, x - 1, y - 1, x + 2, y + 2);
+        let sky = at(16, 30);
+        assert!(
+            (sky.0 - 1.0).abs() < 0.02,
+            "{integrator}: the sky reads {sky:?}"
+        );
+        let hidden = at(23, 9);
+        assert!(
+            (hidden.0 - sky.0).abs() < 0.02,
+            "{integrator}: a single-sided quad seen from behind should show the sky: {hidden:?}"
+        );
+        for (x, y, what) in [
+            (9, 9, "front"),
+            (9, 23, "mirrored"),
+            (23, 23, "double-sided"),
+        ] {
+            let seen = at(x, y);
+            assert!(
+                seen.0 < 0.5 && seen.0 > 0.05,
+                "{integrator}: the {what} quad should be seen (albedo 0.2): {seen:?}"
+            );
+        }
+    }
+}

@@ -339,28 +339,35 @@ def write_texture_sets_and_transforms():
 
 
 def write_single_sided():
-    # Two quads facing the camera (+z); the right one is mirrored by a
-    # negative scale, which turns its front face away (glTF flips the
-    # winding of a node whose transform has a negative determinant).
-    # Single-sided: the camera sees the left one only. NegativeScaleTest
-    # in miniature.
+    # NegativeScaleTest in miniature: four quads of the quad mesh (facing
+    # +z) seen from +z. Top left: as made. Top right: turned about y, its
+    # back to the camera. Bottom left: mirrored by a negative scale, whose
+    # front still faces +z (glTF reads a negative determinant's winding as
+    # clockwise). Bottom right: turned, double-sided. Single-sided, the
+    # camera sees all but the top right.
     g = Gltf()
     primitive = quad(g)
+    turned = [0, 1, 0, 0]
     doc = {
         "scene": 0,
-        "scenes": [{"nodes": [0, 1, 2]}],
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
         "nodes": [
             {"mesh": 0, "translation": [-1.5, 0, 0]},
-            {"mesh": 0, "translation": [1.5, 0, 0], "scale": [-1, 1, 1]},
-            {"mesh": 1, "translation": [0, -3, 0]},
+            {"mesh": 0, "translation": [1.5, 0, 0], "rotation": turned},
+            {"mesh": 0, "translation": [-1.5, -3, 0], "scale": [-1, 1, 1]},
+            {"mesh": 1, "translation": [1.5, -3, 0], "rotation": turned},
         ],
         "meshes": [
             {"name": "single", "primitives": [primitive]},
             {"name": "double", "primitives": [dict(primitive, material=1)]},
         ],
         "materials": [
-            {"name": "single_sided", "pbrMetallicRoughness": {"metallicFactor": 0}},
-            {"name": "double_sided", "doubleSided": True, "pbrMetallicRoughness": {"metallicFactor": 0}},
+            {"name": "single_sided", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 1], "metallicFactor": 0}},
+            {
+                "name": "double_sided",
+                "doubleSided": True,
+                "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 1], "metallicFactor": 0},
+            },
         ],
     }
     g.write(OUT / "single_sided.gltf", doc)

@@ -8,6 +8,7 @@ re-running it changes nothing.
 
     python3 tools/gen_assets.py
     python3 tools/gen_assets.py --terrain DIR   # 1M-triangle OBJ + GLB + scene, for load timing
+    python3 tools/gen_assets.py --terrain DIR 2237   # the same with 10M triangles
 """
 
 import json
@@ -443,8 +444,8 @@ def write_terrain(out, n=708):
 if __name__ == "__main__":
     import sys
 
-    if len(sys.argv) == 3 and sys.argv[1] == "--terrain":
-        write_terrain(Path(sys.argv[2]))
+    if len(sys.argv) in (3, 4) and sys.argv[1] == "--terrain":
+        write_terrain(Path(sys.argv[2]), *map(int, sys.argv[3:]))
     else:
         OUT.mkdir(parents=True, exist_ok=True)
         write_glb()

@@ -55,6 +55,7 @@ impl AovTracer for Aovs {
         let Next::Surface { hit, eta, .. } = trace(
             scene,
             &mut ray,
+            true,
             &mut IorStack::default(),
             &wl,
             &mut Flight::new(SampledSpectrum::ONE),

@@ -58,10 +58,13 @@ pub enum Next {
 /// every ray traced counts. In a medium the path's throughput `flight`
 /// attenuates (Beer–Lambert), and in a scattering one the path may
 /// scatter: `sampler` draws the free-flight distance (`volume::fly`);
-/// None never scatters (first-hit queries).
+/// None never scatters (first-hit queries). A `camera_ray` passes the back
+/// faces of single-sided surfaces (glTF's `doubleSided = false`).
+#[allow(clippy::too_many_arguments)]
 pub fn trace(
     scene: &Scene,
     ray: &mut Ray,
+    camera_ray: bool,
     stack: &mut IorStack,
     wl: &SampledWavelengths,
     flight: &mut Flight,
@@ -84,6 +87,13 @@ pub fn trace(
         let Some(hit) = hit else {
             return Next::Escaped;
         };
+        if camera_ray && scene.hides_back_face(&hit, ray.dir) {
+            *ray = Ray::new(
+                offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
+                ray.dir,
+            );
+            continue;
+        }
         match meet(scene, &hit, ray.dir, stack, wl, counters) {
             Meeting::Pass => {
                 *ray = Ray::new(
@@ -108,8 +118,33 @@ pub fn transmittance(
     wl: &SampledWavelengths,
     counters: &mut PathCounters,
 ) -> SampledSpectrum {
+    transmittance_to(scene, shadow, stack, wl, counters, false)
+}
+
+/// The transmittance of a segment that ends at the camera: single-sided
+/// surfaces that the camera would see from behind let it through, as the
+/// camera's own rays pass them.
+pub fn transmittance_to_camera(
+    scene: &Scene,
+    shadow: &Ray,
+    stack: &IorStack,
+    wl: &SampledWavelengths,
+    counters: &mut PathCounters,
+) -> SampledSpectrum {
+    transmittance_to(scene, shadow, stack, wl, counters, true)
+}
+
+fn transmittance_to(
+    scene: &Scene,
+    shadow: &Ray,
+    stack: &IorStack,
+    wl: &SampledWavelengths,
+    counters: &mut PathCounters,
+    to_camera: bool,
+) -> SampledSpectrum {
     counters.rays += 1;
-    if !scene.has_media() {
+    let culling = to_camera && scene.has_single_sided();
+    if !scene.has_media() && !culling {
         return if scene.occluded(shadow) {
             SampledSpectrum::ZERO
         } else {
@@ -135,10 +170,14 @@ pub fn transmittance(
         let Some(hit) = hit else {
             return tr;
         };
-        // What a path would pass (an interface, a false intersection) the
-        // shadow ray passes too; a real surface blocks it.
-        if let Meeting::Real { .. } = meet(scene, &hit, ray.dir, &mut stack, wl, counters) {
-            return SampledSpectrum::ZERO;
+        // What a path would pass (an interface, a false intersection, a
+        // single-sided surface the camera sees from behind) the shadow ray
+        // passes too; a real surface blocks it.
+        let hidden = culling && scene.hides_back_face(&hit, -ray.dir);
+        if !hidden {
+            if let Meeting::Real { .. } = meet(scene, &hit, ray.dir, &mut stack, wl, counters) {
+                return SampledSpectrum::ZERO;
+            }
         }
         let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir);
         ray = if shadow.t_max.is_finite() {

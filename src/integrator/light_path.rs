@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use super::interface::{media_at, stack_towards, transmittance};
+use super::interface::{media_at, stack_towards, transmittance_to_camera};
 use super::ior_stack::IorStack;
 use super::walk::{Event, Flow, PathContext, Visitor, Walk};
 use super::PathCounters;
@@ -117,7 +117,7 @@ impl LightVertex<'_> {
         if f == SampledSpectrum::ZERO {
             return f;
         }
-        let tr = transmittance(
+        let tr = transmittance_to_camera(
             scene,
             &Ray::towards(origin, cs.p_lens),
             &stack,

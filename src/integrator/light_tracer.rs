@@ -13,7 +13,7 @@
 //! value is the sum of its splats over its sample count, as the render
 //! driver computes it.
 
-use super::interface::transmittance;
+use super::interface::transmittance_to_camera;
 use super::light_path::{self, Scatterer};
 use super::walk::PathContext;
 use super::{lens_sample, PathCounters, PixelSample};
@@ -115,7 +115,7 @@ impl LightTracer {
             if le != SampledSpectrum::ZERO {
                 let origin = offset_ray_origin(lp.p, lp.p_err, lp.n, cs.wi);
                 let shadow = Ray::towards(origin, cs.p_lens);
-                let tr = transmittance(scene, &shadow, &start.stack, &wl, counters);
+                let tr = transmittance_to_camera(scene, &shadow, &start.stack, &wl, counters);
                 let l = le * tr * (cs.weight * cos / (start.pmf * pdf_pos));
                 if l != SampledSpectrum::ZERO {
                     splat(tile, scene, &cs, l, &wl);

@@ -156,8 +156,7 @@ impl PathTracer {
 
     /// A walk from the camera: radiance, nothing around it yet.
     fn camera_walk(&self, ray: Ray) -> Walk {
-        let beta = SampledSpectrum::ONE;
-        Walk::new(ray, IorStack::default(), beta, self.rr_depth)
+        Walk::from_camera(ray, IorStack::default(), self.rr_depth)
     }
 
     /// The light the path from `walk` on gathers until it ends. With

@@ -51,6 +51,9 @@ pub struct Walk {
     pub eta_scale: f32,
     /// Events before Russian roulette may end the path.
     pub rr_depth: u32,
+    /// The ray leaves the camera (cleared once traced): single-sided
+    /// surfaces seen from behind are not there for it.
+    pub camera_ray: bool,
 }
 
 impl Walk {
@@ -62,6 +65,15 @@ impl Walk {
             depth: 0,
             eta_scale: 1.0,
             rr_depth,
+            camera_ray: false,
+        }
+    }
+
+    /// A walk from the camera along `ray` (radiance, nothing around it).
+    pub fn from_camera(ray: Ray, stack: IorStack, rr_depth: u32) -> Self {
+        Self {
+            camera_ray: true,
+            ..Self::new(ray, stack, SampledSpectrum::ONE, rr_depth)
         }
     }
 }
@@ -139,6 +151,7 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
         let next = trace(
             ctx.scene,
             &mut walk.ray,
+            std::mem::take(&mut walk.camera_ray),
             &mut walk.stack,
             ctx.wl,
             &mut walk.flight,

@@ -131,6 +131,8 @@ struct BuiltShapes {
     /// Materials the assets defined, after the scene's own and the default.
     asset_materials: Vec<Material>,
     cutouts: HashMap<u32, Cutout>,
+    /// Materials whose back faces the camera does not see.
+    single_sided: std::collections::HashSet<u32>,
     warnings: Vec<String>,
     /// Files the shapes were read from, with their hashes.
     inputs: Vec<(PathBuf, u64)>,
@@ -301,6 +303,7 @@ struct Loader {
     warnings: RefCell<Vec<String>>,
     /// Cut-outs of imported materials, by scene material index.
     cutouts: RefCell<HashMap<u32, Cutout>>,
+    single_sided: RefCell<std::collections::HashSet<u32>>,
     /// Keys set by the command line, and the flag that set each.
     overridden: RefCell<Vec<(&'static str, &'static str)>>,
     /// Bytes of meshes counted against the memory budget: they are gone
@@ -320,6 +323,7 @@ impl Loader {
             assets: RefCell::default(),
             warnings: RefCell::default(),
             cutouts: RefCell::default(),
+            single_sided: RefCell::default(),
             overridden: RefCell::default(),
             meshes_held: Cell::new(0),
         }
@@ -465,25 +469,19 @@ impl Loader {
             Some(spec) => Some(self.medium(spec, &file, "medium")?),
             None => None,
         };
-        let load_peak = crate::memory::held() + build_bytes;
-        let surface_lights = if reused {
-            // Shared geometry: its shapes' emission may have been edited.
-            let emission: Result<Vec<_>, _> = (file.shapes.iter().enumerate())
-                .map(|(i, shape)| self.shape_emission(i, shape, &file))
-                .collect();
-            built.geometry.surface_lights_with(&emission?)
-        } else {
-            built.geometry.surface_lights().to_vec()
-        };
+        // Decoders' buffers (textures, maps) on top of what was held then,
+        // or what is held now and the BVH build's.
+        let load_peak = crate::memory::peak().max(crate::memory::held() + build_bytes);
         let scene = Scene::assemble(
             camera,
             materials,
             built.geometry.clone(),
-            surface_lights,
+            self.surface_lights(&built, reused, &file)?,
             lights,
         )
         .with_world_medium(world_medium)
-        .with_cutouts(built.cutouts.clone());
+        .with_cutouts(built.cutouts.clone())
+        .with_single_sided(&built.single_sided);
         if scene.lights.is_empty() {
             self.warn(
                 "the scene has no light (no shape with `emission`, no [[light]], no [environment]) \
@@ -503,6 +501,24 @@ impl Loader {
             },
             shapes: built,
         })
+    }
+
+    /// The emitting surfaces of the built geometry; where the geometry is
+    /// shared with an earlier load, with this file's emission (edited
+    /// since, maybe).
+    fn surface_lights(
+        &self,
+        built: &BuiltShapes,
+        reused: bool,
+        file: &SceneFile,
+    ) -> Result<Vec<crate::light::Light>, SceneError> {
+        if !reused {
+            return Ok(built.geometry.surface_lights().to_vec());
+        }
+        let emission: Result<Vec<_>, _> = (file.shapes.iter().enumerate())
+            .map(|(i, shape)| self.shape_emission(i, shape, file))
+            .collect();
+        Ok(built.geometry.surface_lights_with(&emission?))
     }
 
     /// Reads the shapes' meshes and builds the geometry: the BVH, and
@@ -544,6 +560,7 @@ impl Loader {
             geometry: Arc::new(SceneGeometry::build(shapes, spheres)),
             asset_materials,
             cutouts: self.cutouts.take(),
+            single_sided: self.single_sided.take(),
             warnings,
             inputs,
             build_bytes: build,

@@ -321,6 +321,9 @@ impl Loader {
                             if let Some(c) = &m.cutout {
                                 self.cutouts.borrow_mut().insert(index, c.clone());
                             }
+                            if m.single_sided {
+                                self.single_sided.borrow_mut().insert(index);
+                            }
                             index
                         }),
                     };

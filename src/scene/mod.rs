@@ -100,6 +100,10 @@ pub struct Scene {
     /// Per material, where its surfaces are absent; empty when no
     /// material has cut-outs (intersection then skips the test).
     cutouts: Vec<Option<Arc<Cutout>>>,
+    /// Per material, whether its surfaces are single-sided (glTF's
+    /// `doubleSided = false`): the camera does not see their back faces.
+    /// Empty when every material is two-sided.
+    single_sided: Vec<bool>,
     /// Triangles dropped at build because they had no area.
     pub degenerate_triangles: usize,
     /// Bytes held by decoded images (textures, environment maps).
@@ -200,6 +204,7 @@ impl Scene {
                 .any(|m| m.medium().is_some_and(|m| m.scatters())),
             world_medium: None,
             cutouts: Vec::new(),
+            single_sided: Vec::new(),
             materials,
             lights,
             sphere,
@@ -252,6 +257,33 @@ impl Scene {
         }
         self.world_medium = medium;
         self
+    }
+
+    /// The scene with the materials `single_sided` names seen by the camera
+    /// from the front only.
+    pub fn with_single_sided(mut self, single_sided: &std::collections::HashSet<u32>) -> Scene {
+        if !single_sided.is_empty() {
+            self.single_sided = (0..self.materials.len() as u32)
+                .map(|i| single_sided.contains(&i))
+                .collect();
+        }
+        self
+    }
+
+    /// Whether some material is single-sided.
+    pub fn has_single_sided(&self) -> bool {
+        !self.single_sided.is_empty()
+    }
+
+    /// Whether a camera ray along `dir` passes `hit`: the back face of a
+    /// single-sided surface. Only the camera's view culls them (as
+    /// rasterisers do); every other ray meets both faces, so light
+    /// transport stays reciprocal.
+    #[inline]
+    pub fn hides_back_face(&self, hit: &SurfaceHit, dir: Vec3) -> bool {
+        !self.single_sided.is_empty()
+            && self.single_sided[hit.material as usize]
+            && dir.dot(hit.ng) > 0.0
     }
 
     /// The scene with cut-outs for the materials `cutouts` names.

@@ -6,7 +6,7 @@ use glam::Vec2;
 use super::vertex::{Kind, Vertex};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::integrator::interface::transmittance;
+use crate::integrator::interface::{transmittance, transmittance_to_camera};
 use crate::integrator::volume::mis_divisor;
 use crate::integrator::walk::PathContext;
 use crate::integrator::{lens_sample, PathCounters};
@@ -67,7 +67,7 @@ pub(super) fn connect(
         }
         let origin = offset_ray_origin(qs.p, qs.p_err, qs.ng, cs.wi);
         let shadow = Ray::towards(origin, cs.p_lens);
-        let tr = transmittance(scene, &shadow, &qs.stack_towards(cs.wi), wl, counters);
+        let tr = transmittance_to_camera(scene, &shadow, &qs.stack_towards(cs.wi), wl, counters);
         if tr == SampledSpectrum::ZERO {
             return none;
         }

@@ -42,6 +42,8 @@ impl Subpath {
             return;
         }
         let mut state = Walk::new(start.ray, start.stack, start.beta, self.rr_depth);
+        // The camera subpath's first ray leaves the camera.
+        state.camera_ray = self.mode == TransportMode::Radiance;
         let mut visitor = Record {
             mode: self.mode,
             max_vertices: self.max_vertices,

@@ -46,6 +46,8 @@ pub struct AssetMaterial {
     pub emission: Option<Emission>,
     /// Where the surface is absent (alpha masks and blending).
     pub cutout: Option<Cutout>,
+    /// The camera sees the front face only (glTF `doubleSided = false`).
+    pub single_sided: bool,
 }
 
 /// A perspective camera found in the asset, in the asset's space.
@@ -113,9 +115,6 @@ impl TextureCache {
     }
 }
 
-/// Splits every vertex per triangle corner and fills in MikkTSpace tangents
-/// (the glTF convention for normal maps). The mesh needs texture
-/// coordinates; missing normals are taken as the flat face normals.
 /// Smooth vertex normals: each the sum of its triangles' normals weighted
 /// by their areas (the cross product's length), normalised; a vertex of
 /// degenerate triangles only gets its neighbours' direction or +z.
@@ -133,6 +132,9 @@ pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
         .collect()
 }
 
+/// Splits every vertex per triangle corner and fills in MikkTSpace tangents
+/// (the glTF convention for normal maps). The mesh needs texture
+/// coordinates; missing normals are taken as the flat face normals.
 pub fn generate_tangents(mesh: &mut Mesh) -> Result<(), String> {
     let uvs = mesh.uvs.as_ref().ok_or("no texture coordinates")?;
     let mut corners = Corners {

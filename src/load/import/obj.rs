@@ -379,6 +379,35 @@ const IOR_RANGE: std::ops::RangeInclusive<f32> = 1.0..=10.0;
 /// The brightest MTL emission accepted (the scene file's limit).
 const MAX_EMISSION: f32 = 1e30;
 
+/// What an illumination model makes of a material.
+struct Model {
+    glass: bool,
+    mirror: bool,
+}
+
+/// The illumination models as renderers read them: 6 and 7 are refraction
+/// (glass, Ni or 1.5); 4 and 9 are glass only with an index above 1 (Maya
+/// writes `illum 4` and `Ni 1.00` on every material), as is a dissolved
+/// surface; 3, 5 and 8 are reflection (a Fresnel mirror). What is not
+/// mapped is noted.
+fn model(illum: u8, ni: Option<f32>, see_through: bool, note: &mut impl FnMut(&str)) -> Model {
+    let refracts = ni.is_some_and(|n| n > 1.0);
+    match illum {
+        4 | 9 if !refracts => note(&format!(
+            "illum {illum} without an index Ni above 1 (not glass: shaded as illum 2)"
+        )),
+        6 | 7 if ni.is_some() && !refracts => {
+            note(&format!("illum {illum} with Ni ≤ 1 (glass of index 1.5)"))
+        }
+        0..=9 => {}
+        _ => note(&format!("illum {illum} (shaded as illum 2)")),
+    }
+    Model {
+        glass: matches!(illum, 6 | 7) || ((matches!(illum, 4 | 9) || see_through) && refracts),
+        mirror: matches!(illum, 3 | 5 | 8),
+    }
+}
+
 /// One MTL material (from the library file `library`; its textures are
 /// relative to that file).
 fn material(
@@ -418,24 +447,8 @@ fn material(
         .get("Tr")
         .and_then(|t| t.trim().parse::<f32>().ok());
     let see_through = m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0);
-    let refracts = ni.is_some_and(|n| n > 1.0);
     let mut note = |what: &str| ignored.push(format!("{what} (material `{}`)", m.name));
-    // The illumination models as renderers read them: 6 and 7 are
-    // refraction (glass, Ni or 1.5); 4 and 9 are glass only with an index
-    // above 1 (Maya writes `illum 4` and `Ni 1.00` on every material);
-    // 3, 5 and 8 are reflection (a Fresnel mirror).
-    let glass = matches!(illum, 6 | 7) || ((matches!(illum, 4 | 9) || see_through) && refracts);
-    let mirror = matches!(illum, 3 | 5 | 8);
-    match illum {
-        4 | 9 if !refracts => note(&format!(
-            "illum {illum} without an index Ni above 1 (not glass: shaded as illum 2)"
-        )),
-        6 | 7 if ni.is_some() && !refracts => {
-            note(&format!("illum {illum} with Ni ≤ 1 (glass of index 1.5)"))
-        }
-        0..=9 => {}
-        _ => note(&format!("illum {illum} (shaded as illum 2)")),
-    }
+    let Model { glass, mirror } = model(illum, ni, see_through, &mut note);
     // Tf r g b on glass: the colour light keeps after one unit of path
     // inside (a filter), as an absorbing medium; elsewhere it means nothing.
     let filter = m.unknown_param.get("Tf").and_then(|t| parse_filter(t));
@@ -480,29 +493,14 @@ fn material(
             tint: None,
             opaque: None,
         },
-        _ if mirror => Material::Pbr(Box::new(PbrMaterial {
-            // A mirror without Ks takes Kd (× map_Kd), not black.
-            base_color: if ks.max_element() > 0.0 {
-                Spectrum::rgb_reflectance(ks).into()
-            } else {
-                diffuse()
-            },
-            metallic: 1.0,
-            roughness,
-            metallic_roughness: None,
-            ior: 1.5,
-            normal_map: None,
-            layers: Default::default(),
-        })),
-        _ if ks.max_element() > 0.0 && illum >= 2 => Material::Pbr(Box::new(PbrMaterial {
-            base_color: diffuse(),
-            metallic: 0.0,
-            roughness,
-            metallic_roughness: None,
-            ior: ni.unwrap_or(1.5),
-            normal_map: None,
-            layers: Default::default(),
-        })),
+        // A mirror without Ks takes Kd (× map_Kd), not black.
+        _ if mirror && ks.max_element() > 0.0 => {
+            pbr(Spectrum::rgb_reflectance(ks).into(), 1.0, roughness, 1.5)
+        }
+        _ if mirror => pbr(diffuse(), 1.0, roughness, 1.5),
+        _ if ks.max_element() > 0.0 && illum >= 2 => {
+            pbr(diffuse(), 0.0, roughness, ni.unwrap_or(1.5))
+        }
         _ => Material::Diffuse {
             reflectance: diffuse(),
         },
@@ -523,7 +521,21 @@ fn material(
         material,
         emission,
         cutout,
+        single_sided: false,
     }
+}
+
+/// The glTF BRDF: a metal (metallic 1) or plastic (0) of `base_color`.
+fn pbr(base_color: Reflectance, metallic: f32, roughness: f32, ior: f32) -> Material {
+    Material::Pbr(Box::new(PbrMaterial {
+        base_color,
+        metallic,
+        roughness,
+        metallic_roughness: None,
+        ior,
+        normal_map: None,
+        layers: Default::default(),
+    }))
 }
 
 /// Dissolve (`d`, `Tr`, `map_d`) on a surface that is not glass: a

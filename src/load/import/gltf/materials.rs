@@ -393,6 +393,7 @@ impl Context<'_> {
             material,
             emission,
             cutout,
+            single_sided: !m.double_sided(),
         }
     }
 

@@ -154,28 +154,9 @@ impl Context<'_> {
                 "{what}: index {bad} is out of range ({n} vertices)"
             ));
         }
-        let triangles: Vec<[u32; 3]> = match p.mode() {
-            Mode::Triangles => indices
-                .chunks_exact(3)
-                .map(|t| [t[0], t[1], t[2]])
-                .collect(),
-            Mode::TriangleStrip => (2..indices.len())
-                .map(|i| {
-                    // Every other triangle of a strip is wound backwards.
-                    if i % 2 == 0 {
-                        [indices[i - 2], indices[i - 1], indices[i]]
-                    } else {
-                        [indices[i - 1], indices[i - 2], indices[i]]
-                    }
-                })
-                .collect(),
-            Mode::TriangleFan => (2..indices.len())
-                .map(|i| [indices[0], indices[i - 1], indices[i]])
-                .collect(),
-            _ => {
-                self.ignored.insert("points and lines primitives".into());
-                return Ok(None);
-            }
+        let Some(triangles) = triangles(p.mode(), &indices) else {
+            self.ignored.insert("points and lines primitives".into());
+            return Ok(None);
         };
         let mut mesh = Mesh {
             positions,
@@ -280,4 +261,29 @@ impl Context<'_> {
         }
         Ok(unusable)
     }
+}
+
+/// The triangles of a primitive's indices in its mode; None for points and
+/// lines.
+fn triangles(mode: Mode, indices: &[u32]) -> Option<Vec<[u32; 3]>> {
+    Some(match mode {
+        Mode::Triangles => indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+        Mode::TriangleStrip => (2..indices.len())
+            .map(|i| {
+                // Every other triangle of a strip is wound backwards.
+                if i % 2 == 0 {
+                    [indices[i - 2], indices[i - 1], indices[i]]
+                } else {
+                    [indices[i - 1], indices[i - 2], indices[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..indices.len())
+            .map(|i| [indices[0], indices[i - 1], indices[i]])
+            .collect(),
+        _ => return None,
+    })
 }

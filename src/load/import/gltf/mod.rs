@@ -30,8 +30,13 @@
 //!   baseColorFactor × baseColorTexture, tested against alphaCutoff or
 //!   kept with probability alpha.
 //!
-//! Ignored, and listed once per file: texture coordinate sets other than 0,
-//! transmission textures,
+//! - KHR_mesh_quantization and KHR_draco_mesh_compression geometry
+//!   (`attributes`); texture coordinates of the set the material's
+//!   textures ask for; `doubleSided = false` → single-sided (the camera
+//!   sees the front face only); `extensionsRequired` judged by what is
+//!   mapped or decoded here.
+//!
+//! Ignored, and listed once per file: transmission textures,
 //! KHR_materials_volume's thickness (a rasteriser's stand-in for the
 //! geometry prism traces), and every other extension. occlusionTexture is not used by design: a path
 //! tracer computes occlusion. Cameras: perspective ones (orthographic are
@@ -127,6 +132,7 @@ pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
         })),
         emission: None,
         cutout: None,
+        single_sided: true,
     });
 
     let scene = gltf
