@@ -17,29 +17,11 @@ import json
 import math
 import struct
 import sys
-import zlib
 from pathlib import Path
 
+from gen_assets import png, sphere
+
 OUT = Path(__file__).resolve().parent.parent / "tests" / "data" / "assets"
-
-
-def png(width, height, pixel):
-    """An RGB PNG; pixel(x, y) returns (r, g, b) bytes."""
-    rows = b"".join(
-        b"\x00" + bytes(c for x in range(width) for c in pixel(x, y)) for y in range(height)
-    )
-
-    def chunk(kind, data):
-        body = kind + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    return (
-        b"\x89PNG\r\n\x1a\n"
-        + chunk(b"IHDR", header)
-        + chunk(b"IDAT", zlib.compress(rows, 9))
-        + chunk(b"IEND", b"")
-    )
 
 
 def bmp(width, height, pixel):
@@ -59,28 +41,6 @@ def tga(width, height, pixel):
     header = struct.pack("<BBBHHBHHHHBB", 0, 0, 2, 0, 0, 0, 0, 0, width, height, 24, 0x20)
     data = b"".join(bytes(reversed(pixel(x, y))) for y in range(height) for x in range(width))
     return header + data
-
-
-def sphere(rings=12, segments=24):
-    """A UV sphere of radius 1: positions, normals, uvs, triangle indices."""
-    pos, nor, uv, idx = [], [], [], []
-    for r in range(rings + 1):
-        theta = math.pi * r / rings
-        for s in range(segments + 1):
-            phi = 2 * math.pi * s / segments
-            p = (math.sin(theta) * math.cos(phi), math.cos(theta), math.sin(theta) * math.sin(phi))
-            pos.append(p)
-            nor.append(p)
-            uv.append((s / segments, r / rings))
-    for r in range(rings):
-        for s in range(segments):
-            a = r * (segments + 1) + s
-            b = a + segments + 1
-            if r > 0:
-                idx += [a, a + 1, b]
-            if r < rings - 1:
-                idx += [a + 1, b + 1, b]
-    return pos, nor, uv, idx
 
 
 class Gltf:
@@ -162,7 +122,7 @@ def one_mesh(primitive, material=None, node=None, extensions=None):
 
 
 def float_sphere(g):
-    pos, nor, uv, idx = sphere()
+    pos, nor, uv, idx = sphere(12, 24)
     return {
         "attributes": {
             "POSITION": g.floats(pos, "VEC3"),
@@ -181,7 +141,7 @@ def write_spheres():
     # What gltfpack writes: positions as unsigned shorts dequantised by the
     # node's transform, normals as normalised bytes, uvs as normalised
     # unsigned shorts.
-    pos, nor, uv, idx = sphere()
+    pos, nor, uv, idx = sphere(12, 24)
     q = [tuple(round((c + 1) / 2 * 65535) for c in p) for p in pos]
     qn = [tuple(max(-127, min(127, round(c * 127))) for c in n) for n in nor]
     quv = [tuple(round(c * 65535) for c in t) for t in uv]
@@ -205,7 +165,7 @@ def write_draco_sphere():
     import DracoPy
     import numpy as np
 
-    pos, nor, uv, idx = sphere()
+    pos, nor, uv, idx = sphere(12, 24)
     stream = DracoPy.encode(
         np.array(pos, dtype=np.float32),
         np.array(idx, dtype=np.uint32).reshape(-1, 3),

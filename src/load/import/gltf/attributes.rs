@@ -37,9 +37,41 @@ impl Source<'_> {
         [u32; N]: Item,
     {
         let accessor = p.get(semantic)?;
-        match self {
-            Source::Accessors(buffers) => accessor_rows(&accessor, buffers),
-            Source::Draco(d) => d.rows(&semantic.to_string(), &accessor),
+        let buffers = match self {
+            Source::Accessors(buffers) => buffers,
+            Source::Draco(d) => return d.rows(&semantic.to_string(), &accessor),
+        };
+        // Widened to f32 by glTF's rules for normalised integers (the
+        // signed ones clamp at −1).
+        fn widen<T: Item + Copy, const N: usize>(
+            a: &gltf::Accessor,
+            buffers: &[Vec<u8>],
+            f: impl Fn(T) -> f32,
+        ) -> Option<Vec<[f32; N]>>
+        where
+            [T; N]: Item,
+        {
+            let get = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
+            Some(
+                Iter::<[T; N]>::new(a.clone(), get)?
+                    .map(|e| e.map(&f))
+                    .collect(),
+            )
+        }
+        let a = &accessor;
+        match (a.data_type(), a.normalized()) {
+            (DataType::F32, _) => widen::<f32, N>(a, buffers, |x| x),
+            (DataType::I8, true) => widen::<i8, N>(a, buffers, |x| (x as f32 / 127.0).max(-1.0)),
+            (DataType::U8, true) => widen::<u8, N>(a, buffers, |x| x as f32 / 255.0),
+            (DataType::I16, true) => {
+                widen::<i16, N>(a, buffers, |x| (x as f32 / 32767.0).max(-1.0))
+            }
+            (DataType::U16, true) => widen::<u16, N>(a, buffers, |x| x as f32 / 65535.0),
+            (DataType::I8, false) => widen::<i8, N>(a, buffers, |x| x as f32),
+            (DataType::U8, false) => widen::<u8, N>(a, buffers, |x| x as f32),
+            (DataType::I16, false) => widen::<i16, N>(a, buffers, |x| x as f32),
+            (DataType::U16, false) => widen::<u16, N>(a, buffers, |x| x as f32),
+            (DataType::U32, _) => widen::<u32, N>(a, buffers, |x| x as f32),
         }
     }
 
@@ -52,49 +84,6 @@ impl Source<'_> {
             }
             Source::Draco(d) => Some(d.mesh.faces().iter().flat_map(|f| f.map(|i| i.0)).collect()),
         }
-    }
-}
-
-/// An accessor's elements widened to f32 (glTF's rules for normalised
-/// integers: the signed ones clamp at −1).
-fn accessor_rows<const N: usize>(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Option<Vec<[f32; N]>>
-where
-    [f32; N]: Item,
-    [i8; N]: Item,
-    [u8; N]: Item,
-    [i16; N]: Item,
-    [u16; N]: Item,
-    [u32; N]: Item,
-{
-    fn widen<T: Item + Copy, const N: usize>(
-        a: &gltf::Accessor,
-        buffers: &[Vec<u8>],
-        f: impl Fn(T) -> f32,
-    ) -> Option<Vec<[f32; N]>>
-    where
-        [T; N]: Item,
-    {
-        let get = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
-        Some(
-            Iter::<[T; N]>::new(a.clone(), get)?
-                .map(|e| e.map(&f))
-                .collect(),
-        )
-    }
-    let normalized = a.normalized();
-    match a.data_type() {
-        DataType::F32 => widen::<f32, N>(a, buffers, |x| x),
-        DataType::I8 if normalized => widen::<i8, N>(a, buffers, |x| (x as f32 / 127.0).max(-1.0)),
-        DataType::U8 if normalized => widen::<u8, N>(a, buffers, |x| x as f32 / 255.0),
-        DataType::I16 if normalized => {
-            widen::<i16, N>(a, buffers, |x| (x as f32 / 32767.0).max(-1.0))
-        }
-        DataType::U16 if normalized => widen::<u16, N>(a, buffers, |x| x as f32 / 65535.0),
-        DataType::I8 => widen::<i8, N>(a, buffers, |x| x as f32),
-        DataType::U8 => widen::<u8, N>(a, buffers, |x| x as f32),
-        DataType::I16 => widen::<i16, N>(a, buffers, |x| x as f32),
-        DataType::U16 => widen::<u16, N>(a, buffers, |x| x as f32),
-        DataType::U32 => widen::<u32, N>(a, buffers, |x| x as f32),
     }
 }
 
