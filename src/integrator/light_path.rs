@@ -100,6 +100,10 @@ impl LightVertex<'_> {
         cs: &crate::camera::CameraSample,
     ) -> SampledSpectrum {
         let (f, origin, stack) = match self.at {
+            // The camera does not see a single-sided surface's back face.
+            Scatterer::Surface { hit, .. } if scene.hides_back_face(hit, -cs.wi) => {
+                return SampledSpectrum::ZERO;
+            }
             Scatterer::Surface { hit, bsdf, medium } => {
                 let f = bsdf.f(self.wo, cs.wi, TransportMode::Importance) * bsdf.cos_theta(cs.wi);
                 let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, cs.wi);

@@ -59,6 +59,10 @@ pub(super) fn connect(
         let Some(cs) = scene.camera.sample_wi(qs.p, lens_sample(scene, sampler)) else {
             return none;
         };
+        // The camera does not see a single-sided surface's back face.
+        if qs.single_sided && cs.wi.dot(qs.ng) < 0.0 {
+            return none;
+        }
         let camera = Vertex::new(Kind::Camera, cs.p_lens, SampledSpectrum::splat(cs.weight));
         let l =
             qs.beta * qs.f(&camera, TransportMode::Importance) * camera.beta * qs.cos_to(&camera);
