@@ -64,15 +64,15 @@ impl Aabb {
 
     pub fn grow(self, p: Vec3) -> Self {
         Self {
-            min: self.min.min(p),
-            max: self.max.max(p),
+            min: lesser(self.min, p),
+            max: greater(self.max, p),
         }
     }
 
     pub fn union(self, o: Aabb) -> Self {
         Self {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
+            min: lesser(self.min, o.min),
+            max: greater(self.max, o.max),
         }
     }
 
@@ -88,6 +88,22 @@ impl Aabb {
         let d = self.diagonal();
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     }
+}
+
+/// Per component, the smaller: one `minss` each. Boxes hold no NaN (every
+/// vertex is checked finite), so `f32::min`'s NaN handling, three
+/// instructions a component, only slowed the BVH build's binning.
+#[inline]
+fn lesser(a: Vec3, b: Vec3) -> Vec3 {
+    let pick = |a: f32, b: f32| if a < b { a } else { b };
+    Vec3::new(pick(a.x, b.x), pick(a.y, b.y), pick(a.z, b.z))
+}
+
+/// Per component, the larger (see `lesser`).
+#[inline]
+fn greater(a: Vec3, b: Vec3) -> Vec3 {
+    let pick = |a: f32, b: f32| if a > b { a } else { b };
+    Vec3::new(pick(a.x, b.x), pick(a.y, b.y), pick(a.z, b.z))
 }
 
 /// γ(n) = nε/(1 − nε): the bound on relative error of n rounded operations.
