@@ -87,14 +87,12 @@ pub fn trace(
         let Some(hit) = hit else {
             return Next::Escaped;
         };
-        if camera_ray && scene.hides_back_face(&hit, ray.dir) {
-            *ray = Ray::new(
-                offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
-                ray.dir,
-            );
-            continue;
-        }
-        match meet(scene, &hit, ray.dir, stack, wl, counters) {
+        let meeting = if camera_ray && scene.hides_back_face(hit.material, hit.ng, ray.dir) {
+            Meeting::Pass
+        } else {
+            meet(scene, &hit, ray.dir, stack, wl, counters)
+        };
+        match meeting {
             Meeting::Pass => {
                 *ray = Ray::new(
                     offset_ray_origin(hit.p, hit.p_err, hit.ng, ray.dir),
@@ -173,7 +171,7 @@ fn transmittance_to(
         // What a path would pass (an interface, a false intersection, a
         // single-sided surface the camera sees from behind) the shadow ray
         // passes too; a real surface blocks it.
-        let hidden = culling && scene.hides_back_face(&hit, -ray.dir);
+        let hidden = culling && scene.hides_back_face(hit.material, hit.ng, -ray.dir);
         if !hidden {
             if let Meeting::Real { .. } = meet(scene, &hit, ray.dir, &mut stack, wl, counters) {
                 return SampledSpectrum::ZERO;

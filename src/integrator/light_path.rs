@@ -101,7 +101,9 @@ impl LightVertex<'_> {
     ) -> SampledSpectrum {
         let (f, origin, stack) = match self.at {
             // The camera does not see a single-sided surface's back face.
-            Scatterer::Surface { hit, .. } if scene.hides_back_face(hit, -cs.wi) => {
+            Scatterer::Surface { hit, .. }
+                if scene.hides_back_face(hit.material, hit.ng, -cs.wi) =>
+            {
                 return SampledSpectrum::ZERO;
             }
             Scatterer::Surface { hit, bsdf, medium } => {

@@ -275,19 +275,13 @@ impl Scene {
         !self.single_sided.is_empty()
     }
 
-    /// Whether `material`'s surfaces are single-sided.
+    /// Whether a camera ray along `dir` passes a surface of `material`
+    /// with geometric normal `ng`: the back face of a single-sided surface.
+    /// Only the camera's view culls them (as rasterisers do); every other
+    /// ray meets both faces, so light transport stays reciprocal.
     #[inline]
-    pub fn is_single_sided(&self, material: u32) -> bool {
-        !self.single_sided.is_empty() && self.single_sided[material as usize]
-    }
-
-    /// Whether a camera ray along `dir` passes `hit`: the back face of a
-    /// single-sided surface. Only the camera's view culls them (as
-    /// rasterisers do); every other ray meets both faces, so light
-    /// transport stays reciprocal.
-    #[inline]
-    pub fn hides_back_face(&self, hit: &SurfaceHit, dir: Vec3) -> bool {
-        self.is_single_sided(hit.material) && dir.dot(hit.ng) > 0.0
+    pub fn hides_back_face(&self, material: u32, ng: Vec3, dir: Vec3) -> bool {
+        !self.single_sided.is_empty() && self.single_sided[material as usize] && dir.dot(ng) > 0.0
     }
 
     /// The scene with cut-outs for the materials `cutouts` names.

@@ -60,7 +60,10 @@ pub(super) fn connect(
             return none;
         };
         // The camera does not see a single-sided surface's back face.
-        if qs.single_sided && cs.wi.dot(qs.ng) < 0.0 {
+        if qs
+            .material
+            .is_some_and(|m| scene.hides_back_face(m, qs.ng, -cs.wi))
+        {
             return none;
         }
         let camera = Vertex::new(Kind::Camera, cs.p_lens, SampledSpectrum::splat(cs.weight));

@@ -50,8 +50,8 @@ pub(super) struct Vertex {
     pub(super) light: Option<usize>,
     /// Reached through a Dirac lobe: no connection can make this vertex.
     pub(super) delta: bool,
-    /// On a single-sided surface: the camera does not see its back face.
-    pub(super) single_sided: bool,
+    /// The surface's material (surfaces only): whether the camera sees it.
+    pub(super) material: Option<u32>,
     /// Area density (solid angle for lights at infinity) of this vertex
     /// from its own subpath, and from the other direction.
     pub(super) pdf_fwd: f32,
@@ -75,7 +75,7 @@ impl Vertex {
             r: SampledSpectrum::ONE,
             light: None,
             delta: false,
-            single_sided: false,
+            material: None,
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
         }

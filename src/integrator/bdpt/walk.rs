@@ -96,7 +96,7 @@ impl Visitor for Record<'_> {
                 v.uv = hit.uv;
                 v.bsdf = Some(*bsdf);
                 v.light = hit.light;
-                v.single_sided = ctx.scene.is_single_sided(hit.material);
+                v.material = Some(hit.material);
                 v
             }
         };

@@ -259,11 +259,11 @@ enum Found {
 /// The file an MTL texture statement names: its last word (options such as
 /// `-s 1 1 1` come first), with `/` between directories.
 fn file_name_of(statement: &str) -> String {
-    statement
-        .split_whitespace()
-        .last()
-        .unwrap_or(statement)
-        .replace('\\', "/")
+    last_word(statement).replace('\\', "/")
+}
+
+fn last_word(statement: &str) -> &str {
+    statement.split_whitespace().last().unwrap_or(statement)
 }
 
 /// Finds the texture `name` relative to `dir`: options such as `-s 1 1 1`
@@ -271,8 +271,7 @@ fn file_name_of(statement: &str) -> String {
 /// (`.\wall.jpg`, `..\textures\a.png`), and names may differ in case from
 /// the files.
 fn find_texture(dir: &Path, name: &str) -> Found {
-    let last = name.split_whitespace().last().unwrap_or(name);
-    let candidates = [name, last];
+    let candidates = [name, last_word(name)];
     for candidate in candidates {
         for form in [candidate.to_string(), candidate.replace('\\', "/")] {
             let path = dir.join(&form);
