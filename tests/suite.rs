@@ -19,6 +19,7 @@ mod dispersion;
 mod docs;
 mod environment_map;
 mod farm;
+mod fluorescence;
 mod furnace;
 mod fuzz;
 mod hard_cases;

@@ -145,6 +145,10 @@ pub enum RenderError {
         "the {0} integrator connects light paths to the camera, which an orthographic camera's parallel rays cannot receive: use `path` or `sppm`"
     )]
     SplatOrthographic(&'static str),
+    #[error(
+        "the scene has fluorescent materials, which only the `path` integrator renders (the {0} integrator's light paths would change wavelength in the other direction): use `path`"
+    )]
+    Fluorescence(&'static str),
     #[error("adaptive sampling spreads a whole render's samples: it takes no --samples range")]
     AdaptiveRange,
     #[error("the film is {film:?} pixels and the scene's camera was made for {camera:?}: load the scene at the film's resolution")]

@@ -380,6 +380,22 @@ impl Integrator {
     pub fn max_depth(&self) -> u32 {
         self.as_integrate().max_depth()
     }
+
+    /// Whether its paths follow fluorescence: camera paths change
+    /// wavelength backwards (`material::fluorescence`); light paths, bdpt's
+    /// connections and photons would need the forward direction, which
+    /// is not written.
+    pub fn handles_fluorescence(&self) -> bool {
+        matches!(self, Integrator::Path(_))
+    }
+
+    /// Refuses a scene its paths cannot follow.
+    pub fn check_scene(&self, scene: &Scene) -> Result<(), RenderError> {
+        if scene.has_fluorescence() && !self.handles_fluorescence() {
+            return Err(RenderError::Fluorescence(self.name()));
+        }
+        Ok(())
+    }
 }
 
 /// The camera ray through raster position (x, y): a thin lens takes a 4D

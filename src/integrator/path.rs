@@ -113,8 +113,12 @@ impl PixelEstimator for PathTracer {
     ) -> PixelSample {
         let [dx, dy, u_lambda, _] = sampler.next_4d();
         let mut wl = scene.wavelengths.sample(u_lambda);
+        let seen = wl.lambda;
         let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
         let l = self.radiance(scene, ray, &mut wl, sampler, counters);
+        // Fluorescence may have moved the wavelengths the path carries;
+        // the film bins the light at those the camera saw.
+        wl.lambda = seen;
         PixelSample { l, wl }
     }
 }

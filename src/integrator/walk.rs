@@ -166,6 +166,16 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
                 walk.depth += 1;
                 let wo = -walk.ray.dir;
                 let bsdf = bsdf_at(ctx.scene, &hit, wo, ctx.wl, eta);
+                let material = &ctx.scene.materials[hit.material as usize];
+                if material.is_fluorescent() {
+                    // The light this bounce carries comes from where it
+                    // was absorbed: light samples and the rest of the path
+                    // see those wavelengths. (Only camera paths meet
+                    // fluorescence: `Integrator::handles_fluorescence`.)
+                    debug_assert!(visitor.mode() == TransportMode::Radiance);
+                    let u = ctx.sampler.next_4d();
+                    material.fluoresce(hit.uv, ctx.wl, u);
+                }
                 let event = Event {
                     at: Scatterer::Surface {
                         hit: &hit,

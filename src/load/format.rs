@@ -296,6 +296,23 @@ pub enum MaterialSpec {
         /// What fills it: absorbing (coloured glass, water) or scattering.
         medium: Option<MediumSpec>,
     },
+    /// A diffuse surface that fluoresces (optical brighteners, inks,
+    /// highlighters): `reflectance` is its ordinary reflectance; the light
+    /// it re-emits is a Donaldson matrix file (`donaldson`), or an
+    /// `excitation` spectrum (the share absorbed, 0 to 1), an `emission`
+    /// spectrum (its shape) and a `quantum_yield`.
+    Fluorescent {
+        #[serde(default = "default_reflectance")]
+        reflectance: SpectrumSpec,
+        /// A CSV: a header of emission wavelengths (nm) after a first
+        /// cell that is not a number, then one row per excitation
+        /// wavelength: D(λx, λm), per nm of excitation.
+        donaldson: Option<PathBuf>,
+        excitation: Option<SpectrumSpec>,
+        emission: Option<SpectrumSpec>,
+        /// Photons emitted per photon absorbed, 0 to 1.
+        quantum_yield: Option<f32>,
+    },
     /// An index-matched boundary around a medium (fog, smoke): rays cross it
     /// without refracting.
     Interface {

@@ -1,6 +1,7 @@
 //! Materials: diffuse, conductor and dielectric tables, with their
 //! spectra, textures and indices of refraction.
 
+use super::fluorescence::FluorescenceSpec;
 use super::spectra::Role;
 use super::Loader;
 use crate::load::format::{MaterialSpec, SceneFile};
@@ -96,6 +97,30 @@ impl Loader {
                 tint: None,
                 opaque: None,
             },
+            MaterialSpec::Fluorescent {
+                reflectance,
+                donaldson,
+                excitation,
+                emission,
+                quantum_yield,
+            } => {
+                let r = self.spectrum(
+                    reflectance,
+                    Role::Reflectance,
+                    file,
+                    &format!("{key}.reflectance"),
+                )?;
+                let spec = FluorescenceSpec {
+                    donaldson: donaldson.as_deref(),
+                    excitation: excitation.as_ref(),
+                    emission: emission.as_ref(),
+                    quantum_yield: *quantum_yield,
+                };
+                Material::Fluorescent {
+                    fluorescence: self.fluorescence(&spec, &r, file, &key)?,
+                    reflectance: r.into(),
+                }
+            }
             MaterialSpec::Interface { priority, medium } => Material::Interface {
                 priority: *priority,
                 medium: Box::new(self.medium(medium, file, &format!("{key}.medium"))?),

@@ -6,6 +6,7 @@
 
 mod camera;
 mod film;
+mod fluorescence;
 pub mod format;
 pub mod import;
 mod lights;
@@ -439,6 +440,12 @@ impl Loader {
             let m = self.material(name, spec, &file)?;
             material_index.insert(name.clone(), materials.len() as u32);
             materials.push(m);
+        }
+        // Only camera paths follow fluorescence: refused now, naming the file.
+        if materials.iter().any(Material::is_fluorescent) && !integrator.handles_fluorescence() {
+            return Err(
+                self.error(crate::drive::RenderError::Fluorescence(integrator.name()).to_string())
+            );
         }
         let default_material = materials.len() as u32;
         materials.push(Material::Diffuse {

@@ -21,6 +21,16 @@ impl DiffuseLobe {
         }
     }
 
+    /// A Lambertian lobe of a total radiance factor, which fluorescence
+    /// may raise above 1 at the wavelengths it emits (its energy comes
+    /// from other wavelengths).
+    #[inline]
+    pub fn radiance_factor(factor: SampledSpectrum) -> Self {
+        Self {
+            reflectance: factor.max(SampledSpectrum::ZERO),
+        }
+    }
+
     pub fn flags(&self) -> BsdfFlags {
         BsdfFlags::REFLECTION | BsdfFlags::DIFFUSE
     }

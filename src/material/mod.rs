@@ -8,6 +8,7 @@ mod conductor;
 pub mod cutout;
 pub mod dielectric;
 mod diffuse;
+pub mod fluorescence;
 pub mod fresnel;
 pub mod ior;
 pub mod metals;
@@ -16,6 +17,8 @@ pub mod pbr;
 pub mod sheen;
 pub mod thin_film;
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3, Vec4};
 
 pub use bsdf::{Bsdf, BsdfEval, BsdfFlags, BsdfSample, Lobe, TransportMode};
@@ -23,6 +26,7 @@ pub use conductor::ConductorLobe;
 pub use cutout::{Cutout, CutoutMode};
 pub use dielectric::DielectricLobe;
 pub use diffuse::DiffuseLobe;
+pub use fluorescence::Fluorescence;
 pub use ior::Ior;
 pub use pbr::PbrLobe;
 
@@ -193,6 +197,13 @@ pub enum Material {
     Interface { priority: i32, medium: Box<Medium> },
     /// glTF metallic-roughness (imported assets).
     Pbr(Box<PbrMaterial>),
+    /// A diffuse surface that fluoresces: Lambertian reflection of
+    /// `reflectance`, plus light absorbed at shorter wavelengths and
+    /// re-emitted diffusely at longer ones (see [`fluorescence`]).
+    Fluorescent {
+        reflectance: Reflectance,
+        fluorescence: Arc<Fluorescence>,
+    },
 }
 
 /// The list of kinds of material, one line each: `MaterialKind::ALL`
@@ -228,6 +239,7 @@ material_kinds! {
     Dielectric => "dielectric",
     Interface => "interface",
     Pbr => "pbr",
+    Fluorescent => "fluorescent",
 }
 
 impl MaterialKind {
@@ -264,6 +276,21 @@ impl MaterialKind {
                 normal_map: None,
                 layers: Default::default(),
             })),
+            // Excited at 400-450 nm, emitting at 500-540 nm: r + c stays
+            // below 1 at every wavelength, so energy checks apply.
+            MaterialKind::Fluorescent => Material::Fluorescent {
+                reflectance: Spectrum::Constant(0.5).into(),
+                fluorescence: Arc::new(
+                    Fluorescence::from_density(|x, m| {
+                        if (400.0..450.0).contains(&x) && (500.0..540.0).contains(&m) {
+                            0.2 / 40.0
+                        } else {
+                            0.0
+                        }
+                    })
+                    .expect("a matrix with support"),
+                ),
+            },
         }
     }
 }
@@ -288,6 +315,7 @@ impl Material {
             Material::Dielectric { .. } => MaterialKind::Dielectric,
             Material::Interface { .. } => MaterialKind::Interface,
             Material::Pbr(_) => MaterialKind::Pbr,
+            Material::Fluorescent { .. } => MaterialKind::Fluorescent,
         }
     }
 
@@ -308,6 +336,23 @@ impl Material {
                     frame,
                     ng,
                     Lobe::Diffuse(DiffuseLobe::new(reflectance.sample(uv, wl))),
+                    geom.wo,
+                )
+            }
+            Material::Fluorescent {
+                reflectance,
+                fluorescence,
+            } => {
+                // The bounce weighs the total radiance factor at the
+                // wavelengths the path carries here; `fluoresce` then
+                // moves them to where the light was absorbed.
+                let (frame, ng) = facing_frame(geom);
+                let r = reflectance.sample(uv, wl);
+                let factor = fluorescence.radiance_factor(r.clamp(Vec4::ZERO, Vec4::ONE), wl);
+                Bsdf::new(
+                    frame,
+                    ng,
+                    Lobe::Diffuse(DiffuseLobe::radiance_factor(factor)),
                     geom.wo,
                 )
             }
@@ -367,6 +412,24 @@ impl Material {
                 )
             }
         }
+    }
+
+    /// At a fluorescent surface, after its BSDF is built: moves each of a
+    /// camera path's wavelengths to where the light it carries was
+    /// absorbed, with one number of `u` each (nothing elsewhere).
+    pub fn fluoresce(&self, uv: Vec2, wl: &mut SampledWavelengths, u: [f32; 4]) {
+        if let Material::Fluorescent {
+            reflectance,
+            fluorescence,
+        } = self
+        {
+            let r = reflectance.sample(uv, wl).clamp(Vec4::ZERO, Vec4::ONE);
+            fluorescence.excite(r, wl, u);
+        }
+    }
+
+    pub fn is_fluorescent(&self) -> bool {
+        matches!(self, Material::Fluorescent { .. })
     }
 
     /// The shading normal after the material's normal map, if it has one.

@@ -49,6 +49,7 @@ pub fn render(
             camera: scene.camera.resolution(),
         });
     }
+    settings.integrator.check_scene(scene)?;
     let integrator = settings.integrator.as_integrate();
     integrator.check(&scene.camera, f, options)?;
     let mut b = rayon::ThreadPoolBuilder::new();
