@@ -69,3 +69,60 @@ fn d65_lit_white_reflector_through_the_film() {
         );
     }
 }
+
+/// Built-in illuminants are scaled to Y = 1 under CIE 1931 whatever the
+/// film's observer (docs/scene-format.md): an emitter seen directly has
+/// Y = 1 under CIE 1931 and, under another observer, the Y of the same
+/// radiance (D65: 1.0073 under 1964 10°, illuminant A: 0.966).
+#[test]
+fn illuminants_keep_their_cie_1931_scale_under_every_observer() {
+    use prism::spectrum::cie::Observer;
+    for (name, table) in [("D65", cie::d65()), ("A", cie::illuminant("A").unwrap())] {
+        let spectrum = Spectrum::Table(table.clone());
+        let y_1931 = cie::spectrum_to_xyz(&spectrum).y as f64;
+        for (observer, key) in [
+            (Observer::Cie1931, "cie1931-2"),
+            (Observer::Cie1964, "cie1964-10"),
+            (Observer::Cie2015_10, "cie2015-10"),
+        ] {
+            let loaded = crate::common::scene(&format!(
+                r#"
+                [camera]
+                position = [0, 0, -1]
+                look_at = [0, 0, 0]
+                fov = 30
+                [film]
+                resolution = [4, 4]
+                spp = 4096
+                observer = "{key}"
+                [[shape]]
+                type = "quad"
+                vertices = [[-2, -2, 0], [-2, 2, 0], [2, 2, 0], [2, -2, 0]]
+                emission = "{name}"
+                two_sided = true
+                "#
+            ));
+            let film = crate::common::render_film(&loaded, 2);
+            let expected = observer.cmfs().spectrum_to_xyz(&spectrum).y as f64 / y_1931;
+            let (mut mean, mut var) = (0.0, 0.0);
+            for y in 0..4 {
+                for x in 0..4 {
+                    let (m, v) = film.luminance_and_variance(x, y);
+                    mean += m / 16.0;
+                    var += v / 256.0;
+                }
+            }
+            assert!(
+                (mean - expected).abs() < 5.0 * var.sqrt() + 1e-4,
+                "{name} under {key}: Y {mean} ± {}, expected {expected}",
+                var.sqrt()
+            );
+            if observer == Observer::Cie1931 {
+                assert!((expected - 1.0).abs() < 1e-6);
+            } else {
+                // The test tells the two conventions apart.
+                assert!((expected - 1.0).abs() > 10.0 * var.sqrt(), "{name} {key}");
+            }
+        }
+    }
+}

@@ -8,9 +8,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use glam::Vec3;
 
-use super::colour::{ColourSpace, ColourTransform};
+use super::colour::ColourSpace;
 use super::display::{self, DisplaySettings};
 use super::{AovSet, Film, FilmSettings};
+use crate::spectrum::cie::Observer;
 
 /// The view transform of the PNG: how linear radiance becomes display
 /// values.
@@ -142,25 +143,16 @@ fn temp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{stem}.partial-{}.{ext}", std::process::id()))
 }
 
-/// The film's RGB (in `colour`'s space) as a float32 RGB OpenEXR tagged
-/// with the space's chromaticities.
-pub fn write_exr(film: &Film, colour: &ColourTransform, path: &Path) -> Result<()> {
-    write_rgb_exr_in(
-        &film.rgb(colour),
-        film.width,
-        film.height,
-        Some(colour.space),
-        path,
-    )
-}
-
 /// The film as NAME.exr: RGB in the film's colour space, and the AOVs its
 /// settings ask for as further channels (`albedo.R/G/B` in the same space,
 /// `normal.X/Y/Z`, `depth.Z`, `sampleCount.Y`).
 pub fn write_film_exr(film: &Film, settings: &FilmSettings, path: &Path) -> Result<()> {
     let aovs = settings.aovs;
+    let attributes = colour_attributes(settings);
     if aovs == AovSet::default() {
-        return write_exr(film, &settings.colour, path);
+        let rgb = film.rgb(&settings.colour);
+        let space = Some(settings.colour.space);
+        return write_rgb_exr_in(&rgb, film.width, film.height, space, &attributes, path);
     }
     use exr::prelude::*;
     let (w, h) = (film.width as usize, film.height as usize);
@@ -198,9 +190,14 @@ pub fn write_film_exr(film: &Film, settings: &FilmSettings, path: &Path) -> Resu
         .into_iter()
         .map(|(name, plane)| AnyChannel::new(name, FlatSamples::F32(plane)))
         .collect();
+    let mut header = LayerAttributes::default();
+    set_header_attributes(
+        &mut header,
+        attributes.iter().map(|(k, v)| (*k, v.as_str())),
+    );
     let layer = Layer::new(
         (w, h),
-        LayerAttributes::default(),
+        header,
         exr_encoding(),
         AnyChannels::sort(channels.into_iter().collect()),
     );
@@ -216,7 +213,7 @@ pub fn write_film_exr(film: &Film, settings: &FilmSettings, path: &Path) -> Resu
 
 /// Row-major linear sRGB pixels as a float32 RGB OpenEXR.
 pub fn write_rgb_exr(rgb: &[Vec3], width: u32, height: u32, path: &Path) -> Result<()> {
-    write_rgb_exr_in(rgb, width, height, None, path)
+    write_rgb_exr_in(rgb, width, height, None, &[], path)
 }
 
 /// OpenEXR's `chromaticities` attribute for a colour space.
@@ -242,13 +239,72 @@ pub fn exr_encoding() -> exr::prelude::Encoding {
     }
 }
 
+/// Puts text `attributes` in an EXR header (non-ASCII characters, say of a
+/// file name, become '?'), and OpenEXR's `adoptedNeutral` where they name
+/// the colour space, observer and white balance (`colour_attributes`).
+pub fn set_header_attributes<'a>(
+    header: &mut exr::meta::header::LayerAttributes,
+    attributes: impl IntoIterator<Item = (&'a str, &'a str)> + Clone,
+) {
+    use super::spectral_exr::{ATTR_COLOUR_SPACE, ATTR_OBSERVER, ATTR_WHITE_BALANCE};
+    use exr::meta::attribute::{AttributeValue, Text};
+    let get = |key: &str| {
+        attributes
+            .clone()
+            .into_iter()
+            .find(|a| a.0 == key)
+            .map(|a| a.1)
+    };
+    let space = get(ATTR_COLOUR_SPACE).and_then(ColourSpace::from_name);
+    let observer = get(ATTR_OBSERVER).and_then(Observer::from_name);
+    if let (Some(space), Some(observer), Some(balance)) = (space, observer, get(ATTR_WHITE_BALANCE))
+    {
+        let xy = super::colour::adopted_neutral(space, observer, balance != "none");
+        header.adopted_neutral = Some(exr::math::Vec2(xy.x as f32, xy.y as f32));
+    }
+    let text = |s: &str| {
+        Text::from(
+            s.chars()
+                .map(|c| if c.is_ascii() { c } else { '?' })
+                .collect::<String>()
+                .as_str(),
+        )
+    };
+    for (k, v) in attributes {
+        header.other.insert(text(k), AttributeValue::Text(text(v)));
+    }
+}
+
+/// What NAME.exr says of its colour: the space of its R, G, B, the
+/// observer, the white balance and the XYZ → RGB matrix (the spectral
+/// EXR's `render` attributes say the same).
+pub fn colour_attributes(settings: &FilmSettings) -> Vec<(&'static str, String)> {
+    use super::spectral_exr::*;
+    vec![
+        (ATTR_COLOUR_SPACE, settings.colour.space.name().to_string()),
+        (ATTR_OBSERVER, settings.observer.name().to_string()),
+        (
+            ATTR_WHITE_BALANCE,
+            settings
+                .white_balance
+                .clone()
+                .unwrap_or_else(|| "none".into()),
+        ),
+        (
+            ATTR_XYZ_TO_RGB,
+            super::display::matrix_text(settings.colour.matrix()),
+        ),
+    ]
+}
+
 /// Row-major RGB pixels as a float32 RGB OpenEXR, tagged with `space`'s
-/// chromaticities where given.
+/// chromaticities where given, and text `attributes`.
 pub fn write_rgb_exr_in(
     rgb: &[Vec3],
     width: u32,
     height: u32,
     space: Option<ColourSpace>,
+    attributes: &[(&str, String)],
     path: &Path,
 ) -> Result<()> {
     use exr::prelude::*;
@@ -259,6 +315,10 @@ pub fn write_rgb_exr_in(
     });
     let mut image = Image::from_encoded_channels((w, h), exr_encoding(), channels);
     image.attributes.chromaticities = space.map(exr_chromaticities);
+    set_header_attributes(
+        &mut image.layer_data.attributes,
+        attributes.iter().map(|(k, v)| (*k, v.as_str())),
+    );
     write_atomically(path, |tmp| {
         image
             .write()

@@ -46,7 +46,17 @@ pub fn channel_name(lambda: f64) -> String {
 /// `S0.550,000000nm`, `S0.0,55um`, `S0.545,077THz`) into nanometres.
 /// Returns None for channels that are not emissive spectral channels.
 pub fn parse_channel_name(name: &str) -> Option<f64> {
-    let quantity = name.strip_prefix("S0.")?;
+    parse_quantity(name.strip_prefix("S0.")?)
+}
+
+/// Parses a channel of Fichet's reflective layout, `T.<number><prefix><m|Hz>`
+/// (a reflectance or transmittance per wavelength), into nanometres.
+pub fn parse_reflective_name(name: &str) -> Option<f64> {
+    parse_quantity(name.strip_prefix("T.")?)
+}
+
+/// A wavelength or frequency with its SI prefix and unit, in nanometres.
+fn parse_quantity(quantity: &str) -> Option<f64> {
     let (rest, hertz) = match quantity.strip_suffix("Hz") {
         Some(r) => (r, true),
         None => (quantity.strip_suffix('m')?, false),
@@ -147,6 +157,13 @@ impl SpectralImage {
 /// The colour space of the R, G, B channels (a `film.colour_space` name;
 /// linear sRGB where absent).
 pub const ATTR_COLOUR_SPACE: &str = "prismColourSpace";
+/// The XYZ → RGB matrix (row-major) of the R, G, B channels: the film's
+/// colour space and white balance.
+pub const ATTR_XYZ_TO_RGB: &str = "prismXyzToRgb";
+/// The film's white balance as the scene wrote it ("none" without one).
+pub const ATTR_WHITE_BALANCE: &str = "prismWhiteBalance";
+/// The observer whose colour-matching functions made XYZ.
+pub const ATTR_OBSERVER: &str = "prismObserver";
 
 /// Writes the film's spectral buckets, RGB preview and sample counts.
 pub fn write(
@@ -171,21 +188,11 @@ pub fn write_image(img: SpectralImage, path: &Path) -> Result<()> {
     for (name, plane) in img.other {
         channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(plane)));
     }
-    // EXR text is ASCII-safe here: anything else (say, in a file name) becomes '?'.
-    let text = |s: &str| {
-        Text::from(
-            s.chars()
-                .map(|c| if c.is_ascii() { c } else { '?' })
-                .collect::<String>()
-                .as_str(),
-        )
-    };
     let mut layer_attributes = LayerAttributes::default();
-    for (k, v) in &img.attributes {
-        layer_attributes
-            .other
-            .insert(text(k), AttributeValue::Text(text(v)));
-    }
+    super::output::set_header_attributes(
+        &mut layer_attributes,
+        img.attributes.iter().map(|(k, v)| (k.as_str(), v.as_str())),
+    );
     let layer = Layer::new(
         (img.width, img.height),
         layer_attributes,
@@ -375,6 +382,9 @@ mod tests {
         assert!((parse_channel_name("S0.5,5e2nm").unwrap() - 550.0).abs() < 1e-9);
         assert_eq!(parse_channel_name("R"), None);
         assert_eq!(parse_channel_name("T.550nm"), None);
+        assert_eq!(parse_reflective_name("T.550nm"), Some(550.0));
+        assert_eq!(parse_reflective_name("T.550,5nm"), Some(550.5));
+        assert_eq!(parse_reflective_name("S0.550nm"), None);
         assert_eq!(parse_channel_name("S0.abcnm"), None);
     }
 }

@@ -174,7 +174,7 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
                     // fluorescence: `Integrator::handles_fluorescence`.)
                     debug_assert!(visitor.mode() == TransportMode::Radiance);
                     let u = ctx.sampler.next_4d();
-                    material.fluoresce(hit.uv, ctx.wl, u);
+                    walk.flight.beta *= material.fluoresce(hit.uv, ctx.wl, u);
                 }
                 let event = Event {
                     at: Scatterer::Surface {

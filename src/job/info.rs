@@ -28,11 +28,33 @@ pub fn describe(file: &Path) -> Result<String> {
         let max = finite.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         (min, max, mean, values.len() - finite.len())
     };
-    if img.wavelengths.is_empty() {
+    // Emissive channels (S0.), else those of the reflective layout (T.),
+    // which stay among the other channels when read.
+    let mut reflective: Vec<(f64, &str)> = img
+        .other
+        .keys()
+        .filter_map(|k| spectral_exr::parse_reflective_name(k).map(|l| (l, k.as_str())))
+        .collect();
+    reflective.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (layout, wavelengths, planes): (&str, Vec<f64>, Vec<&Vec<f32>>) =
+        if !img.wavelengths.is_empty() || reflective.is_empty() {
+            (
+                "emissive S0",
+                img.wavelengths.clone(),
+                img.spectral.iter().collect(),
+            )
+        } else {
+            (
+                "reflective T",
+                reflective.iter().map(|r| r.0).collect(),
+                reflective.iter().map(|r| &img.other[r.1]).collect(),
+            )
+        };
+    if wavelengths.is_empty() {
         let _ = writeln!(out, "no spectral channels");
     } else {
-        let n = img.wavelengths.len();
-        let (first, last) = (img.wavelengths[0], img.wavelengths[n - 1]);
+        let n = wavelengths.len();
+        let (first, last) = (wavelengths[0], wavelengths[n - 1]);
         let spacing = if n > 1 {
             (last - first) / (n - 1) as f64
         } else {
@@ -40,7 +62,7 @@ pub fn describe(file: &Path) -> Result<String> {
         };
         let _ = writeln!(
             out,
-            "spectral (emissive S0): {n} channels, centres {first:.3}-{last:.3} nm, spacing {spacing:.3} nm"
+            "spectral ({layout}): {n} channels, centres {first:.3}-{last:.3} nm, spacing {spacing:.3} nm"
         );
         let _ = writeln!(
             out,
@@ -48,7 +70,7 @@ pub fn describe(file: &Path) -> Result<String> {
             "nm", "min", "mean", "max"
         );
         let mut bad = 0;
-        for (lambda, plane) in img.wavelengths.iter().zip(&img.spectral) {
+        for (lambda, plane) in wavelengths.iter().zip(planes) {
             let (min, max, mean, non_finite) = stats(plane);
             bad += non_finite;
             let _ = writeln!(
@@ -58,7 +80,8 @@ pub fn describe(file: &Path) -> Result<String> {
         }
         let _ = writeln!(out, "  non-finite spectral values: {bad}");
     }
-    for (name, plane) in &img.other {
+    let listed = |name: &str| layout == "reflective T" && reflective.iter().any(|r| r.1 == name);
+    for (name, plane) in img.other.iter().filter(|(k, _)| !listed(k)) {
         let (min, max, mean, non_finite) = stats(plane);
         let _ = writeln!(
             out,

@@ -77,11 +77,21 @@ pub fn merge_files(job: &MergeJob) -> Result<()> {
         .filter(|&&c| c == 0.0)
         .count();
     let samples = merged.attributes[ATTR_SAMPLES].clone();
+    // NAME.exr says of its colour what the parts' spectral files say.
+    let colour_attributes: Vec<(&str, String)> = [
+        spectral_exr::ATTR_COLOUR_SPACE,
+        spectral_exr::ATTR_OBSERVER,
+        spectral_exr::ATTR_WHITE_BALANCE,
+        spectral_exr::ATTR_XYZ_TO_RGB,
+    ]
+    .into_iter()
+    .filter_map(|k| merged.attributes.get(k).map(|v| (k, v.clone())))
+    .collect();
     // The three files replace the old ones together, or none does. The
     // merged image goes into its file without a copy of its planes.
     crate::film::output::as_one_set(|| {
         spectral_exr::write_image(merged, &spectral)?;
-        write_rgb_exr_in(&rgb, w, h, space, &exr)?;
+        write_rgb_exr_in(&rgb, w, h, space, &colour_attributes, &exr)?;
         let display_rgb: Vec<glam::Vec3> = rgb.iter().map(|&c| to_display * c).collect();
         display::write_png(&display_rgb, w, h, &png, &settings)
     })?;

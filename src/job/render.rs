@@ -395,7 +395,7 @@ pub fn spectral_attributes(
         (ATTR_SAMPLES, format!("{}..{}", samples.start, samples.end)),
         (ATTR_REGION, options.region.map(|v| v.to_string()).join(",")),
         ("prismIntegrator", settings.integrator.name().to_string()),
-        ("prismObserver", film.observer.name().to_string()),
+        (ATTR_OBSERVER, film.observer.name().to_string()),
         // How the R, G, B channels came from XYZ (colour space and white
         // balance): `prism.read` inverts it.
         (ATTR_XYZ_TO_RGB, matrix_text(film.colour.matrix())),
@@ -418,11 +418,8 @@ pub fn spectral_attributes(
     extra
 }
 
-/// The spectral EXR's XYZ → RGB matrix (row-major), of the film's colour
-/// space and white balance.
-pub const ATTR_XYZ_TO_RGB: &str = "prismXyzToRgb";
-/// The film's white balance as the scene wrote it ("none" without one).
-pub const ATTR_WHITE_BALANCE: &str = "prismWhiteBalance";
+use crate::film::spectral_exr::ATTR_OBSERVER;
+pub use crate::film::spectral_exr::{ATTR_WHITE_BALANCE, ATTR_XYZ_TO_RGB};
 /// Present ("true") when the render stopped before every sample was taken.
 pub const ATTR_INTERRUPTED: &str = "prismInterrupted";
 

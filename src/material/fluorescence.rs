@@ -27,7 +27,8 @@
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, LAMBDA_MAX, LAMBDA_MIN};
 
 /// A Donaldson matrix on 1 nm cells over its support within
-/// [LAMBDA_MIN, LAMBDA_MAX].
+/// [LAMBDA_MIN, LAMBDA_MAX], and optionally the scene's light to guide
+/// which exciting wavelengths are drawn.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fluorescence {
     /// Start of the first excitation cell (whole nm) and the cell count.
@@ -39,7 +40,17 @@ pub struct Fluorescence {
     /// For emission cell k, `cdf[k·(nx+1) + i]` = Σ over excitation cells
     /// below i of D (per nm) × 1 nm; the last entry is the column's total.
     cdf: Vec<f32>,
+    /// The same sums of D × E, E being the scene's light at each
+    /// excitation cell (`guided_by`): half the exciting wavelengths are
+    /// drawn from them, so a narrow lamp is found where it shines. Empty
+    /// without a guide.
+    lit_cdf: Vec<f32>,
+    /// E at each excitation cell (mean 1 over the cells where it shines).
+    light: Vec<f32>,
 }
+
+/// Share of exciting wavelengths drawn from D × E where a guide is set.
+const GUIDED: f32 = 0.5;
 
 /// Cells of 1 nm over the range paths carry.
 const CELLS: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize;
@@ -82,7 +93,38 @@ impl Fluorescence {
             m0: LAMBDA_MIN + m_range.0 as f32,
             nm,
             cdf,
+            lit_cdf: Vec::new(),
+            light: Vec::new(),
         })
+    }
+
+    /// The matrix, drawing half its exciting wavelengths in proportion to
+    /// D × `light` (per 1 nm cell over [LAMBDA_MIN, LAMBDA_MAX]: the
+    /// scene's emission), the other half from D alone so that light from
+    /// elsewhere (reflected, or from another fluorescent surface) is still
+    /// found. Without light (all zero) it is the matrix unguided.
+    pub fn guided_by(&self, light: &[f64]) -> Self {
+        let first_x = (self.x0 - LAMBDA_MIN) as usize;
+        let cells = &light[first_x..first_x + self.nx];
+        let mean = cells.iter().map(|e| e.max(0.0)).sum::<f64>() / self.nx as f64;
+        let mut guided = self.clone();
+        if !(mean > 0.0 && mean.is_finite()) {
+            guided.lit_cdf.clear();
+            guided.light.clear();
+            return guided;
+        }
+        guided.light = cells.iter().map(|e| (e.max(0.0) / mean) as f32).collect();
+        guided.lit_cdf = Vec::with_capacity(self.cdf.len());
+        for k in 0..self.nm {
+            let c = &self.cdf[k * (self.nx + 1)..(k + 1) * (self.nx + 1)];
+            let mut sum = 0.0f64;
+            guided.lit_cdf.push(0.0);
+            for i in 0..self.nx {
+                sum += (c[i + 1] - c[i]) as f64 * guided.light[i] as f64;
+                guided.lit_cdf.push(sum as f32);
+            }
+        }
+        guided
     }
 
     /// The emission cell holding `m`, if the matrix has one there.
@@ -145,17 +187,52 @@ impl Fluorescence {
         [self.m0, self.m0 + self.nm as f32]
     }
 
-    /// An exciting wavelength for emission at `m`, drawn with density
-    /// D(·, m) / column_total(m) from `u` in [0, 1) (`m` itself where the
-    /// column is empty).
+    /// An exciting wavelength for emission at `m`, drawn from `u` in
+    /// [0, 1) with density D(·, m) / column_total(m) (`m` itself where
+    /// the column is empty).
     #[inline]
     pub fn sample_excitation(&self, m: f32, u: f32) -> f32 {
-        let Some(c) = self.column(m) else {
-            return m;
+        match self.column(m) {
+            Some(c) => self.invert(c, u).unwrap_or(m),
+            None => m,
+        }
+    }
+
+    /// An exciting wavelength for emission at `m` and its weight, the
+    /// density D(·, m) / column_total(m) over the density it was drawn
+    /// with: that one where there is no guide, else the mixture with D × E.
+    #[inline]
+    pub fn sample_excitation_guided(&self, m: f32, u: f32) -> (f32, f32) {
+        let k = (m - self.m0).floor();
+        let (Some(c), false) = (self.column(m), self.lit_cdf.is_empty()) else {
+            return (self.sample_excitation(m, u), 1.0);
         };
+        let start = k as usize * (self.nx + 1);
+        let lit = &self.lit_cdf[start..start + self.nx + 1];
+        let (total, lit_total) = (c[self.nx], lit[self.nx]);
+        if !(lit_total > 0.0 && total > 0.0) {
+            return (self.sample_excitation(m, u), 1.0);
+        }
+        let x = if u < GUIDED {
+            self.invert(lit, u / GUIDED)
+        } else {
+            self.invert(c, (u - GUIDED) / (1.0 - GUIDED))
+        };
+        let Some(x) = x else {
+            return (m, 1.0);
+        };
+        let i = ((x - self.x0) as usize).min(self.nx - 1);
+        // p_D / (g p_DE + (1 − g) p_D), with p_DE / p_D = E c / c_E.
+        let ratio = self.light[i] * total / lit_total;
+        (x, 1.0 / (GUIDED * ratio + (1.0 - GUIDED)))
+    }
+
+    /// The wavelength where the running sums `c` reach `u` of their total.
+    #[inline]
+    fn invert(&self, c: &[f32], u: f32) -> Option<f32> {
         let total = c[self.nx];
         if !(total > 0.0) {
-            return m;
+            return None;
         }
         let target = u * total;
         // The cell i with c[i] <= target < c[i + 1], skipping empty cells.
@@ -166,7 +243,7 @@ impl Fluorescence {
         } else {
             0.5
         };
-        self.x0 + i as f32 + t
+        Some(self.x0 + i as f32 + t)
     }
 
     /// The weight of a camera path's bounce off a surface of reflectance
@@ -179,9 +256,17 @@ impl Fluorescence {
 
     /// Moves each of the path's wavelengths back across the bounce: it
     /// stays with probability r / (r + c) and otherwise becomes an
-    /// exciting wavelength of the matrix, one number of `u` each.
+    /// exciting wavelength of the matrix, one number of `u` each. Returns
+    /// what the path's throughput is multiplied by: 1 except where a guide
+    /// drew the exciting wavelength (`sample_excitation_guided`).
     #[inline]
-    pub fn excite(&self, r: SampledSpectrum, wl: &mut SampledWavelengths, u: [f32; 4]) {
+    pub fn excite(
+        &self,
+        r: SampledSpectrum,
+        wl: &mut SampledWavelengths,
+        u: [f32; 4],
+    ) -> SampledSpectrum {
+        let mut weight = SampledSpectrum::ONE;
         for j in 0..4 {
             if wl.pdf[j] == 0.0 {
                 continue;
@@ -195,9 +280,10 @@ impl Fluorescence {
             let t = u[j] * total;
             if t >= r[j] {
                 let v = ((t - r[j]) / c).clamp(0.0, 1.0 - f32::EPSILON);
-                wl.lambda[j] = self.sample_excitation(m, v);
+                (wl.lambda[j], weight[j]) = self.sample_excitation_guided(m, v);
             }
         }
+        weight
     }
 }
 
@@ -262,6 +348,44 @@ mod tests {
         }
     }
 
+    /// Guided by a narrow lamp, the weighted draws still follow D(·, m):
+    /// the histogram of weights per cell is the column's density.
+    #[test]
+    fn guided_draws_weighted_follow_the_column() {
+        let lamp: Vec<f64> = (0..CELLS)
+            .map(|i| {
+                let l = LAMBDA_MIN + i as f32 + 0.5;
+                if (400.0..410.0).contains(&l) {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let f = example().guided_by(&lamp);
+        let m = 530.2;
+        let total = f.column_total(m) as f64;
+        let n = 200_000;
+        let mut sums = vec![0.0f64; CELLS];
+        let mut in_lamp = 0;
+        for s in 0..n {
+            let (x, w) = f.sample_excitation_guided(m, (s as f32 + 0.5) / n as f32);
+            sums[(x - LAMBDA_MIN) as usize] += w as f64 / n as f64;
+            in_lamp += (400.0..410.0).contains(&x) as u32;
+        }
+        for (i, &got) in sums.iter().enumerate() {
+            let expected = f.density(LAMBDA_MIN + i as f32 + 0.5, m) as f64 / total;
+            assert!(
+                (got - expected).abs() < 2e-4,
+                "cell {i}: {got} vs {expected}"
+            );
+        }
+        // More than half the draws land where the lamp shines.
+        assert!(in_lamp as f64 > 0.5 * n as f64, "{in_lamp}");
+        // No light: the matrix as it was.
+        assert_eq!(example().guided_by(&vec![0.0; CELLS]), example());
+    }
+
     #[test]
     fn each_wavelength_is_kept_or_excited_in_proportion() {
         let f = example();
@@ -276,7 +400,7 @@ mod tests {
                 lambda: SampledSpectrum::splat(m),
                 pdf: SampledSpectrum::ONE,
             };
-            f.excite(r, &mut wl, [u; 4]);
+            assert_eq!(f.excite(r, &mut wl, [u; 4]), SampledSpectrum::ONE);
             if wl.lambda[0] == m {
                 kept += 1;
             } else {

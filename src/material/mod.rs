@@ -416,15 +416,34 @@ impl Material {
 
     /// At a fluorescent surface, after its BSDF is built: moves each of a
     /// camera path's wavelengths to where the light it carries was
-    /// absorbed, with one number of `u` each (nothing elsewhere).
-    pub fn fluoresce(&self, uv: Vec2, wl: &mut SampledWavelengths, u: [f32; 4]) {
-        if let Material::Fluorescent {
-            reflectance,
-            fluorescence,
-        } = self
-        {
-            let r = reflectance.sample(uv, wl).clamp(Vec4::ZERO, Vec4::ONE);
-            fluorescence.excite(r, wl, u);
+    /// absorbed, with one number of `u` each, and returns what the path's
+    /// throughput is multiplied by (1 elsewhere; see
+    /// `Fluorescence::excite`).
+    pub fn fluoresce(&self, uv: Vec2, wl: &mut SampledWavelengths, u: [f32; 4]) -> SampledSpectrum {
+        match self {
+            Material::Fluorescent {
+                reflectance,
+                fluorescence,
+            } => {
+                let r = reflectance.sample(uv, wl).clamp(Vec4::ZERO, Vec4::ONE);
+                fluorescence.excite(r, wl, u)
+            }
+            _ => SampledSpectrum::ONE,
+        }
+    }
+
+    /// A fluorescent material that draws its exciting wavelengths guided by
+    /// `light` (the scene's emission per 1 nm cell); others as they are.
+    pub fn guided_by(&self, light: &[f64]) -> Material {
+        match self {
+            Material::Fluorescent {
+                reflectance,
+                fluorescence,
+            } => Material::Fluorescent {
+                reflectance: reflectance.clone(),
+                fluorescence: Arc::new(fluorescence.guided_by(light)),
+            },
+            other => other.clone(),
         }
     }
 

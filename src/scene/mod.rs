@@ -158,6 +158,17 @@ fn wavelength_distribution(lights: &LightSet, materials: &[Material]) -> Wavelen
     )
 }
 
+/// Fluorescent materials draw half their exciting wavelengths where the
+/// scene's lights emit (`Fluorescence::guided_by`).
+fn guide_fluorescence(materials: Vec<Material>, lights: &LightSet) -> Vec<Material> {
+    if !materials.iter().any(Material::is_fluorescent) {
+        return materials;
+    }
+    let centres: Vec<f32> = WavelengthDistribution::centres().collect();
+    let emission = lights.relative_emission(&centres);
+    materials.iter().map(|m| m.guided_by(&emission)).collect()
+}
+
 static NEXT_SCENE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// Peak bytes a triangle costs while the scene is built: the imported mesh,
@@ -201,9 +212,11 @@ impl Scene {
                 .map(|l| l.with_scene_bounds(sphere)),
         );
         let lights = LightSet::new(lights);
+        let wavelengths = wavelength_distribution(&lights, &materials);
+        let materials = guide_fluorescence(materials, &lights);
         Scene {
             id: NEXT_SCENE_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
-            wavelengths: wavelength_distribution(&lights, &materials),
+            wavelengths,
             camera,
             has_dielectrics: materials.iter().any(|m| m.bounds_volume()),
             has_media: materials.iter().any(|m| m.medium().is_some()),

@@ -53,6 +53,11 @@ impl Observer {
     ];
 
     /// The name scene files use.
+    /// The observer a `name` names (as `film.observer` writes it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|o| o.name() == name)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Observer::Cie1931 => "cie1931-2",

@@ -72,9 +72,8 @@ D65_1931_LUMINANCE = xyz_of(D65, "cie1931-2")[1]
 
 
 def render_white_xy(observer):
-    """The white prism adapts from: the spaces' D65 under CIE 1931, else D65 under the observer."""
-    if observer == "cie1931-2":
-        return np.array([0.3127, 0.3290])
+    """The white prism adapts from: the D65 spectrum under the observer (under
+    CIE 1931 too, so that D65 renders neutral in every observer)."""
     return colour.XYZ_to_xy(xyz_of(D65, observer))
 
 
@@ -320,3 +319,31 @@ def test_gamut_mapping_keeps_the_hue_of_spectral_lines(prism, tmp_path):
     assert mapped.max() < 0.021, mapped
     # Per-channel clipping turns spectral greens and cyans far off their hue.
     assert clipped.max() > 0.05, clipped
+
+
+@pytest.mark.parametrize("observer,space,balance,recorded", [
+    ("cie1931-2", "srgb-linear", None, "none"),
+    ("cie1964-10", "xyz", None, "none"),
+    ("cie2015-10", "acescg", '"A"', "A"),
+    ("cie1931-2", "xyz", "{ temperature = 3200 }", "3200 K"),
+])
+def test_files_say_which_observer_white_balance_and_neutral(prism, tmp_path, observer, space, balance, recorded):
+    """NAME.exr and NAME.spectral.exr record the observer, the white
+    balance and OpenEXR's adoptedNeutral: the chromaticity their R, G, B
+    render neutral (the space's white; raw XYZ: D65 under the observer, or
+    E after a white balance)."""
+    keys = f'observer = "{observer}"\ncolour_space = "{space}"'
+    if balance:
+        keys += f"\nwhite_balance = {balance}"
+    render(prism, checker_scene(tmp_path, keys, "s"), tmp_path / "s", "1")
+    if space == "xyz":
+        neutral = np.array([1 / 3, 1 / 3]) if balance else render_white_xy(observer)
+    else:
+        neutral = colour.RGB_COLOURSPACES[SPACES[space]].whitepoint
+    for path in [tmp_path / "s.exr", tmp_path / "s.spectral.exr"]:
+        with OpenEXR.File(str(path)) as f:
+            header = dict(f.header())
+        assert header["prismObserver"] == observer, path
+        assert header["prismWhiteBalance"] == recorded, path
+        assert header["prismColourSpace"] == space, path
+        assert np.abs(np.array(header["adoptedNeutral"]) - neutral).max() < 1e-5, (path, header["adoptedNeutral"], neutral)

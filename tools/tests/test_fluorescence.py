@@ -88,7 +88,7 @@ def luminance_one(spd):
 ILLUMINANTS = {
     '"D65"': (luminance_one(table("cie_d65.csv")), 64),
     '"A"': (luminance_one(table("cie_a.csv")), 64),
-    str(VIOLET): (np.interp(CELLS, *np.array(VIOLET).T, left=0, right=0), 2048),
+    str(VIOLET): (np.interp(CELLS, *np.array(VIOLET).T, left=0, right=0), 256),
 }
 
 

@@ -61,3 +61,25 @@ def test_colour_check_gives_a_verdict(prism, tmp_path):
     assert ok.returncode == 0 and "PASS" in ok.stdout, ok.stdout + ok.stderr
     bad = subprocess.run([sys.executable, tool, f"{a}.spectral.exr", f"{b}.exr"], capture_output=True, text=True)
     assert bad.returncode == 1 and "FAIL" in bad.stdout, bad.stdout + bad.stderr
+
+
+def test_info_reads_the_reflective_layout(prism, tmp_path):
+    """A reflectance image in Fichet's reflective layout (T. channels), as
+    colour-science reads it: `prism info` lists its channels as spectral."""
+    import colour
+
+    path = tmp_path / "reflectance.exr"
+    wavelengths = [450.0, 550.0, 650.0]
+    channels = {"T." + f"{w:.6f}".replace(".", ",") + "nm": np.full((2, 3), 0.1 * (k + 1), np.float32)
+                for k, w in enumerate(wavelengths)}
+    header = {"spectralLayoutVersion": "1.0", "compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(path))
+    read_wavelengths, values = colour.read_spectral_image_Fichet2021(str(path))["T"]
+    np.testing.assert_allclose(read_wavelengths, wavelengths)
+    assert values.shape == (2, 3, 3)
+
+    report = prism("info", path).stdout
+    assert "spectral (reflective T): 3 channels, centres 450.000-650.000 nm" in report, report
+    assert "no spectral channels" not in report
+    assert "550.000      0.200000      0.200000      0.200000" in report, report
