@@ -53,6 +53,18 @@ impl Display {
         }
     }
 
+    /// The ICC profile of the PNG's iCCP chunk, for displays other than
+    /// sRGB (which has a chunk of its own).
+    pub fn icc_profile(self) -> Option<Vec<u8>> {
+        match self {
+            Display::Srgb => None,
+            Display::DisplayP3 => Some(super::icc::srgb_curve_profile(
+                "Display P3 (prism)",
+                ColourSpace::DisplayP3Linear.chromaticities(),
+            )),
+        }
+    }
+
     /// cICP code points (ITU-T H.273): colour primaries (1: BT.709, 12:
     /// SMPTE EG 432-1, P3 with D65), transfer 13 (sRGB), RGB, full range.
     pub fn cicp(self) -> [u8; 4] {
@@ -112,7 +124,7 @@ pub fn to_display(c: Vec3, settings: &DisplaySettings, oklab: &Oklab) -> Vec3 {
                     .map(|v| if v > 0.0 { v / (1.0 + v) } else { v }),
             )
         }
-        Tonemap::Filmic => filmic(c),
+        Tonemap::Filmic => filmic(c, oklab),
     };
     match settings.gamut {
         Gamut::Clip => c.clamp(Vec3::ZERO, Vec3::ONE),
@@ -120,30 +132,38 @@ pub fn to_display(c: Vec3, settings: &DisplaySettings, oklab: &Oklab) -> Vec3 {
     }
 }
 
-/// An AgX-like view transform (after Sobotka's AgX, not its constants):
-/// the colour is pulled 20 % towards its grey (an "inset" of the
-/// primaries), each channel goes through a logistic curve in stops around
-/// middle grey (0.18 → 0.18 on the display; +6.5 stops → 99 % white; −10
-/// stops → black), and the inset is undone. Channels near white converge
-/// on it, so highlights roll off and desaturate smoothly instead of
-/// clipping to a primary or secondary; the inset keeps hue shifts small.
-pub fn filmic(c: Vec3) -> Vec3 {
-    const INSET: f32 = 0.2;
+/// A filmic view transform that holds hue: the colour is scaled so that
+/// its largest channel follows a logistic curve in stops around middle grey
+/// (0.18 → 0.18 on the display; +6.5 stops → 99 % white; −10 stops →
+/// black), which keeps its chromaticity; then, as that curve nears white,
+/// it is moved towards white in OKLab at constant hue (lightness up, chroma
+/// down), so highlights roll off and desaturate smoothly instead of
+/// clipping to a primary. Hue changes only in the gamut step after it
+/// (none with `gamut = "map"` for colours inside the spectral locus).
+pub fn filmic(c: Vec3, oklab: &Oklab) -> Vec3 {
     // Logistic width (stops) and centre (stops above grey): grey maps to
     // sRGB-encoded 0.4614 (linear 0.18) and grey + 6.5 stops to 0.99.
     const WIDTH: f32 = 1.366;
     const CENTRE: f32 = 0.2185;
-    let grey = (c.x + c.y + c.z) / 3.0;
-    let inset = c * (1.0 - INSET) + Vec3::splat(grey * INSET);
-    let curve = inset.to_array().map(|v| {
-        let stops = (v.max(1e-10) / 0.18).log2();
-        let encoded = 1.0 / (1.0 + (-(stops - CENTRE) / WIDTH).exp());
-        crate::spectrum::cie::srgb_decode(encoded)
-    });
-    let v = Vec3::from_array(curve);
-    // The inverse of the inset: M = (1 − s) I + s J/3, M⁻¹ = (I − s J/3) / (1 − s).
-    let mean = (v.x + v.y + v.z) / 3.0;
-    (v - Vec3::splat(mean * INSET)) / (1.0 - INSET)
+    // Where on the encoded curve the path to white starts.
+    const SHOULDER: f32 = 0.75;
+    let peak = c.max_element();
+    if !(peak > 0.0) {
+        return Vec3::ZERO;
+    }
+    let stops = (peak / 0.18).log2();
+    let encoded = 1.0 / (1.0 + (-(stops - CENTRE) / WIDTH).exp());
+    let scaled = c * (crate::spectrum::cie::srgb_decode(encoded) / peak);
+    let towards_white = ((encoded - SHOULDER) / (1.0 - SHOULDER))
+        .clamp(0.0, 1.0)
+        .powi(2);
+    if towards_white == 0.0 {
+        return scaled;
+    }
+    let lab = oklab.from_rgb(scaled);
+    let lightness = lab.x + (1.0 - lab.x) * towards_white;
+    let chroma = 1.0 - towards_white;
+    oklab.to_rgb(Vec3::new(lightness, lab.y * chroma, lab.z * chroma))
 }
 
 /// OKLab for one display's linear RGB (Ottosson 2020; CSS Color 4's
@@ -280,13 +300,18 @@ pub fn write_png(
     write_atomically(path, |tmp| {
         let file = std::fs::File::create(tmp)
             .with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut encoder = png::Encoder::new(BufWriter::new(file), width, height);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(if settings.bits == 16 {
+        let mut info = png::Info::with_size(width, height);
+        info.color_type = png::ColorType::Rgb;
+        info.bit_depth = if settings.bits == 16 {
             png::BitDepth::Sixteen
         } else {
             png::BitDepth::Eight
-        });
+        };
+        // For viewers that do not read cICP: sRGB's own chunk, or an ICC
+        // profile of the display (without one they would assume sRGB).
+        info.icc_profile = settings.display.icc_profile().map(Into::into);
+        let mut encoder = png::Encoder::with_info(BufWriter::new(file), info)
+            .with_context(|| format!("cannot write {}", tmp.display()))?;
         if settings.display == Display::Srgb {
             encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         }
@@ -416,8 +441,64 @@ mod tests {
         }
     }
 
+    /// OKLab hue of saturated colours and spectral lines over 11 stops of
+    /// exposure, against the colour's own (where the result has chroma to
+    /// speak of). The filmic curve before this change drifted −5° (blue),
+    /// +24° (orange), −8.5° (red), +48° (450 nm), −17° (520 nm) and +44°
+    /// (600 nm); Reinhard per channel drifts as much.
+    #[test]
+    fn filmic_holds_hue() {
+        use crate::spectrum::cie;
+        let ok = Oklab::for_display(Display::Srgb);
+        let hue = |c: Vec3| {
+            let l = ok.from_rgb(c);
+            l.z.atan2(l.y).to_degrees()
+        };
+        let line = |nm: f32| {
+            let rgb = cie::xyz_to_linear_srgb(cie::cmf(nm));
+            rgb / rgb.max_element()
+        };
+        let colours = [
+            (Vec3::new(0.05, 0.1, 1.0), true),
+            (Vec3::new(1.0, 0.45, 0.05), true),
+            (Vec3::new(1.0, 0.05, 0.05), true),
+            (line(450.0), false),
+            (line(520.0), false),
+            (line(600.0), false),
+        ];
+        for (c, in_gamut) in colours {
+            for gamut in [Gamut::Clip, Gamut::Map] {
+                // Lines outside the display's gamut keep hue only when mapped.
+                if !in_gamut && gamut == Gamut::Clip {
+                    continue;
+                }
+                let settings = DisplaySettings {
+                    tonemap: Tonemap::Filmic,
+                    gamut,
+                    ..Default::default()
+                };
+                for k in -12..=32 {
+                    let out = to_display(c * (k as f32 * 0.25).exp2(), &settings, &ok);
+                    let lab = ok.from_rgb(out);
+                    if lab.y.hypot(lab.z) < 0.02 {
+                        continue;
+                    }
+                    let d = (hue(out) - hue(c) + 540.0) % 360.0 - 180.0;
+                    let limit = if in_gamut { 3.0 } else { 6.0 };
+                    assert!(
+                        d.abs() < limit,
+                        "{c} x 2^{}: hue {d:+.1}° ({gamut:?})",
+                        k as f32 / 4.0
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn filmic_keeps_grey_rolls_off_and_desaturates_highlights() {
+        let ok = Oklab::for_display(Display::Srgb);
+        let filmic = |c: Vec3| filmic(c, &ok);
         let g = filmic(Vec3::splat(0.18));
         assert!((g - Vec3::splat(0.18)).abs().max_element() < 2e-3, "{g}");
         let bright = filmic(Vec3::splat(100.0));

@@ -5,6 +5,7 @@
 pub mod colour;
 pub mod convergence;
 pub mod display;
+mod icc;
 pub mod output;
 pub mod spectral_exr;
 mod tile;

@@ -23,9 +23,9 @@ pub enum Tonemap {
     Clamp,
     /// x / (1 + x) per channel: keeps highlights, compresses everything.
     Reinhard,
-    /// An AgX-like curve: a logistic in stops per channel in an inset
-    /// space; highlights roll off and desaturate smoothly
-    /// ([`display::filmic`]).
+    /// A logistic roll-off in stops of the largest channel, then a path to
+    /// white in OKLab at constant hue: highlights roll off and desaturate
+    /// smoothly without hue shifts ([`display::filmic`]).
     Filmic,
 }
 

@@ -250,6 +250,30 @@ def test_pngs_are_tagged_and_16_bit_where_asked(prism, tmp_path):
         assert chunks["cICP"] == bytes([primaries, 13, 0, 1]), chunks["cICP"]
         assert chunks["IHDR"][8] == 16
         assert ("sRGB" in chunks) == (display == "srgb")
+        assert ("iCCP" in chunks) == (display == "display-p3")
+
+
+def test_display_p3_pngs_carry_an_icc_profile_that_little_cms_reads_as_p3(prism, tmp_path):
+    """For viewers that ignore cICP: the iCCP profile, read by littleCMS
+    (Pillow's ImageCms), takes Display P3 pixels to the same sRGB values as
+    colour-science's Display P3 -> sRGB conversion (within 8-bit rounding)."""
+    import io
+
+    from PIL import Image, ImageCms
+
+    out = tmp_path / "p3"
+    prism("render", checker_scene(tmp_path, 'display = "display-p3"', "p3"), "-q", "-o", out, "--spp", "1")
+    profile = Image.open(f"{out}.png").info["icc_profile"]
+    p3 = ImageCms.ImageCmsProfile(io.BytesIO(profile))
+    assert "Display P3" in ImageCms.getProfileDescription(p3)
+    # In-gamut colours of both spaces, and saturated P3 ones that clip.
+    codes = np.array([[[200, 30, 40], [30, 180, 60], [40, 60, 190], [128, 128, 128], [250, 240, 10], [255, 255, 255]]], np.uint8)
+    src = Image.fromarray(codes, "RGB")
+    srgb = ImageCms.createProfile("sRGB")
+    converted = np.asarray(ImageCms.profileToProfile(src, p3, srgb, renderingIntent=ImageCms.Intent.RELATIVE_COLORIMETRIC), np.float64)
+    expected = colour.RGB_to_RGB(codes / 255.0, "Display P3", "sRGB", apply_cctf_decoding=True, apply_cctf_encoding=True)
+    expected = np.clip(expected, 0, 1) * 255
+    assert np.abs(converted - expected).max() < 2.5, (converted, expected)
 
 
 LINES = [450, 475, 500, 520, 540, 560, 580, 600, 630]
