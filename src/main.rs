@@ -8,7 +8,10 @@ use clap::{Parser, Subcommand};
 
 use prism::film::{Gamut, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
-use prism::job::{describe, merge_files, render_files, Interrupts, MergeJob, Reaction, RenderJob};
+use prism::job::{
+    describe, describe_spectrum, merge_files, render_files, Interrupts, MergeJob, Reaction,
+    RenderJob, SpectrumQuery,
+};
 use prism::load::Overrides;
 
 /// prism: a spectral, physically based path tracer.
@@ -207,7 +210,32 @@ enum Command {
         /// The file (a spectral EXR of prism's or anyone's, or a plain RGB EXR).
         file: PathBuf,
     },
+    /// The colorimetry of a spectrum, without a scene: XYZ, xy, u'v', CCT
+    /// and Duv, luminance; or, with --under, a reflectance's XYZ and CIELAB.
+    #[command(after_long_help = SPECTRUM_EXAMPLES)]
+    Spectrum {
+        /// A built-in illuminant ("D65", "LED-B3"), a spectrum file, or a
+        /// scene file's form ('{ daylight = 5500 }', '{ blackbody = 2856 }').
+        spectrum: String,
+        /// The value column of a multi-column file: a header name or a
+        /// position from 1.
+        #[arg(long, value_name = "NAME_OR_N")]
+        column: Option<String>,
+        /// Treat the spectrum as a reflectance seen under this illuminant
+        /// (the same forms).
+        #[arg(long, value_name = "ILLUMINANT")]
+        under: Option<String>,
+        /// The observer of XYZ, xy and u'v' (CCT and Duv always use CIE 1931).
+        #[arg(long, default_value = "cie1931-2", value_name = "OBSERVER")]
+        observer: String,
+    },
 }
+
+const SPECTRUM_EXAMPLES: &str = "Examples:
+  prism spectrum D65
+  prism spectrum '{ daylight = 5500 }'
+  prism spectrum lamps.csv --column 3
+  prism spectrum spectra/colorchecker/13_blue.csv --under D50 --observer cie1964-10";
 
 fn parse_samples(s: &str) -> Result<std::ops::Range<u32>, String> {
     prism::merge::parse_sample_range(s)
@@ -465,6 +493,27 @@ fn run(cli: Cli) -> Result<ExitCode> {
         }
         Command::Info { file } => {
             print!("{}", describe(&file)?);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Spectrum {
+            spectrum,
+            column,
+            under,
+            observer,
+        } => {
+            let observer =
+                prism::spectrum::cie::Observer::from_name(&observer).ok_or_else(|| {
+                    anyhow::anyhow!(
+                    "--observer {observer}: one of cie1931-2, cie1964-10, cie2015-2, cie2015-10"
+                )
+                })?;
+            let query = SpectrumQuery {
+                spectrum: &spectrum,
+                column: column.as_deref(),
+                under: under.as_deref(),
+                observer,
+            };
+            print!("{}", describe_spectrum(&query)?);
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -126,3 +126,97 @@ fn illuminants_keep_their_cie_1931_scale_under_every_observer() {
         }
     }
 }
+
+/// Spectrum files with several value columns need `column` (a header name
+/// or a position from 1); semicolon files with decimal commas read as the
+/// same numbers.
+#[test]
+fn spectrum_columns_are_picked_by_name_or_position() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("two.csv"),
+        "nm,dark,light\n400,0.1,0.8\n700,0.2,0.9\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("semi.csv"), "nm;light\n400;0,8\n700;0,9\n").unwrap();
+    let load = |reflectance: &str| {
+        let text = format!(
+            "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n\
+             [materials.m]\ntype = \"diffuse\"\nreflectance = {reflectance}\n"
+        );
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, text).unwrap();
+        prism::load::load(&path)
+    };
+    let reflectance_at = |loaded: prism::load::Loaded, nm: f32| match &loaded.scene.materials[0] {
+        prism::material::Material::Diffuse { reflectance } => reflectance.factor.eval(nm),
+        other => panic!("{other:?}"),
+    };
+    let e = load("{ file = \"two.csv\" }").err().unwrap().to_string();
+    assert!(
+        e.contains("2 value columns")
+            && e.contains("columns: dark, light")
+            && e.contains("materials.m.reflectance"),
+        "{e}"
+    );
+    let by_name = reflectance_at(
+        load("{ file = \"two.csv\", column = \"light\" }").unwrap(),
+        550.0,
+    );
+    let by_index = reflectance_at(load("{ file = \"two.csv\", column = 2 }").unwrap(), 550.0);
+    let semicolons = reflectance_at(load("{ file = \"semi.csv\" }").unwrap(), 550.0);
+    assert!((by_name - 0.85).abs() < 1e-6 && by_index == by_name && semicolons == by_name);
+    let e = load("{ file = \"two.csv\", column = \"medium\" }")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("no column named `medium`"), "{e}");
+}
+
+/// A white balance on the daylight locus renders that daylight neutral,
+/// and `{ daylight = 6504 }` is the standard D65 to the table's precision.
+#[test]
+fn daylight_by_temperature_emits_and_white_balances() {
+    let scene = |emission: &str, balance: &str| {
+        crate::common::scene(&format!(
+            r#"
+            [camera]
+            position = [0, 0, -1]
+            look_at = [0, 0, 0]
+            fov = 30
+            [film]
+            resolution = [2, 2]
+            spp = 256
+            white_balance = {balance}
+            [[shape]]
+            type = "quad"
+            vertices = [[-2, -2, 0], [-2, 2, 0], [2, 2, 0], [2, -2, 0]]
+            emission = {emission}
+            two_sided = true
+            "#
+        ))
+    };
+    let mean_rgb = |loaded: &prism::load::Loaded| {
+        let film = crate::common::render_film(loaded, 1);
+        let xyz = (0..4).map(|i| film.xyz(i % 2, i / 2)).sum::<Vec3>() / 4.0;
+        loaded.settings.film.colour.rgb(xyz)
+    };
+    let rgb = mean_rgb(&scene("{ daylight = 4500 }", "{ daylight = 4500 }"));
+    assert!(
+        (rgb.max_element() - rgb.min_element()) < 1e-3 * rgb.max_element(),
+        "{rgb}"
+    );
+    let warm = mean_rgb(&scene("{ daylight = 4500 }", "\"D65\""));
+    assert!(warm.x > 1.1 * warm.z, "{warm}");
+    let d65 = mean_rgb(&scene("\"D65\"", "\"D65\""));
+    let made = mean_rgb(&scene("{ daylight = 6504 }", "\"D65\""));
+    assert!((d65 - made).abs().max_element() < 2e-3, "{d65} {made}");
+    let e = prism::load::load_str(
+        "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n[film]\nwhite_balance = { daylight = 3000 }\n",
+        std::path::Path::new("."),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(e.contains("4000–25000 K"), "{e}");
+}

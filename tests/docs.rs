@@ -332,7 +332,7 @@ fn the_command_line_page_documents_every_flag_and_no_other() {
         .split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
         .collect();
     let mut all = BTreeSet::new();
-    for sub in ["render", "merge", "bench", "info"] {
+    for sub in ["render", "merge", "bench", "info", "spectrum"] {
         for flag in flags(sub) {
             if flag == "--help" {
                 continue;

@@ -71,6 +71,25 @@ def main():
         write(f"cie_{fl.lower()}.csv", ["wavelength_nm", "value"],
               f"CIE illuminant {fl} (fluorescent), relative spectral power, 380-780 nm 5 nm",
               [(w, sd[w]) for w in sd.wavelengths])
+    # The D-series basis functions S0, S1, S2 at their own 5 nm (prism
+    # interpolates linearly, as colour-science's D-series illuminants do):
+    # `{ daylight = K }` and daylight white balance.
+    basis = colour.colorimetry.SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES
+    write("cie_d_series_basis.csv", ["wavelength_nm", "S0", "S1", "S2"],
+          "CIE D-series basis functions S0, S1, S2 (CIE 15:2004 table T.2), 300-830 nm, 5 nm",
+          [(w, basis["S0"][w], basis["S1"][w], basis["S2"][w]) for w in basis["S0"].wavelengths])
+
+    # The lamps of CIE 15:2018 by name, one column each, 380-780 nm at 5 nm:
+    # the fluorescent series FL1-FL12 and FL3.1-FL3.15, the high-pressure
+    # discharge lamps HP1-HP5 and the LED series.
+    lamps = ([f"FL{i}" for i in range(1, 13)] + [f"FL3.{i}" for i in range(1, 16)]
+             + [f"HP{i}" for i in range(1, 6)]
+             + ["LED-B1", "LED-B2", "LED-B3", "LED-B4", "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"])
+    sds = [colour.SDS_ILLUMINANTS[k] for k in lamps]
+    assert all(sd.shape == sds[0].shape for sd in sds)
+    write("cie_lamps.csv", ["wavelength_nm", *lamps],
+          "CIE 15:2018 illuminants FL1-FL12, FL3.1-FL3.15, HP1-HP5 and the LED series, relative spectral power, 380-780 nm 5 nm",
+          [(w, *[sd[w] for sd in sds]) for w in sds[0].wavelengths])
     print("sum of ybar over the 1 nm table:", float(np.sum(cmfs.values[:, 1])))
 
 

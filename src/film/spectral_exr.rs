@@ -383,7 +383,7 @@ mod tests {
         assert_eq!(parse_channel_name("R"), None);
         assert_eq!(parse_channel_name("T.550nm"), None);
         assert_eq!(parse_reflective_name("T.550nm"), Some(550.0));
-        assert_eq!(parse_reflective_name("T.550,5nm"), Some(550.5));
+        assert!((parse_reflective_name("T.550,5nm").unwrap() - 550.5).abs() < 1e-9);
         assert_eq!(parse_reflective_name("S0.550nm"), None);
         assert_eq!(parse_channel_name("S0.abcnm"), None);
     }

@@ -5,6 +5,7 @@ mod info;
 mod interrupt;
 mod merge;
 mod render;
+mod spectrum;
 mod tev;
 
 use std::ffi::OsStr;
@@ -19,6 +20,7 @@ pub use render::{
     render_files, spectral_attributes, write_set, RenderJob, RenderOutcome, ATTR_INTERRUPTED,
     ATTR_WHITE_BALANCE, ATTR_XYZ_TO_RGB,
 };
+pub use spectrum::{describe_spectrum, SpectrumQuery};
 
 /// Where NAME.exr and NAME.png go: `output` (extension dropped) or next to
 /// the scene.

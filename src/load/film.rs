@@ -73,7 +73,11 @@ impl Loader {
             aovs,
             white_balance: f.white_balance.as_ref().map(|v| match v {
                 toml::Value::String(name) => name.clone(),
-                toml::Value::Table(t) => format!("{} K", t["temperature"]),
+                toml::Value::Table(t) => match (t.get("temperature"), t.get("daylight")) {
+                    (Some(k), _) => format!("{k} K"),
+                    (_, Some(k)) => format!("daylight {k} K"),
+                    _ => v.to_string(),
+                },
                 other => other.to_string(),
             }),
         })
@@ -84,7 +88,8 @@ impl Loader {
     /// temperature).
     fn white_balance(&self, file: &SceneFile) -> Result<Option<Spectrum>, SceneError> {
         const FORMS: &str = "`film.white_balance` takes an illuminant name such as \"A\" \
-            (or a spectrum of [spectra]) or a table { temperature = 3200 } (kelvin, Planckian)";
+            (or a spectrum of [spectra]), a table { temperature = 3200 } (kelvin, Planckian) \
+            or { daylight = 5500 } (kelvin, CIE D series)";
         let spectrum = match &file.film.white_balance {
             None => return Ok(None),
             Some(toml::Value::String(name)) => self.spectrum(
@@ -105,6 +110,19 @@ impl Loader {
                     )));
                 }
                 Spectrum::Blackbody { kelvin, scale: 1.0 }
+            }
+            Some(toml::Value::Table(t)) if t.len() == 1 && t.contains_key("daylight") => {
+                let kelvin = match &t["daylight"] {
+                    toml::Value::Float(k) => *k as f32,
+                    toml::Value::Integer(k) => *k as f32,
+                    _ => return Err(self.error(FORMS)),
+                };
+                let table = crate::spectrum::cie::daylight(kelvin).ok_or_else(|| {
+                    self.error(format!(
+                        "`film.white_balance.daylight` = {kelvin} K is outside the D series' 4000–25000 K"
+                    ))
+                })?;
+                Spectrum::Table(table)
             }
             Some(_) => return Err(self.error(FORMS)),
         };

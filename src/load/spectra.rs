@@ -49,7 +49,11 @@ impl Loader {
                 let (l, v): (Vec<f32>, Vec<f32>) = rows.iter().map(|r| (r[0], r[1])).unzip();
                 self.table(l, v, key)?
             }
-            SpectrumSpec::File { path, scale } => {
+            SpectrumSpec::File {
+                path,
+                scale,
+                column,
+            } => {
                 let full = self.input_file(path.as_ref(), key)?;
                 let text = crate::input::read_to_string(&full).map_err(|e| {
                     self.error(format!("`{key}`: spectrum file {}: {e}", full.display()))
@@ -59,8 +63,24 @@ impl Loader {
                 if let Some(note) = &t.note {
                     self.warn(format!("`{key}`: {}: {note}", full.display()));
                 }
-                Spectrum::Table(TabulatedSpectrum::new(t.wavelengths, t.columns[0].clone()))
+                let k = t
+                    .column(column.as_ref())
+                    .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
+                Spectrum::Table(TabulatedSpectrum::new(t.wavelengths, t.columns[k].clone()))
                     .scaled(*scale)
+            }
+            SpectrumSpec::Daylight { kelvin, scale } => {
+                if role != Role::Emission {
+                    return Err(self.error(format!(
+                        "`{key}`: a daylight illuminant is an emission spectrum"
+                    )));
+                }
+                let table = cie::daylight(*kelvin).ok_or_else(|| {
+                    self.error(format!(
+                        "`{key}`: the CIE D series is defined from 4000 to 25000 K, not {kelvin}"
+                    ))
+                })?;
+                normalised(Spectrum::Table(table)).scaled(*scale)
             }
             SpectrumSpec::Blackbody { kelvin, scale } => {
                 if role == Role::Unbounded {
@@ -139,7 +159,7 @@ impl Loader {
             ))),
             None => Err(self.error(format!(
                 "`{key}`: unknown spectrum `{name}` (built-in: {}; or define it under [spectra])",
-                cie::ILLUMINANT_NAMES.join(", ")
+                cie::illuminant_names().join(", ")
             ))),
         }
     }
@@ -148,7 +168,7 @@ impl Loader {
     /// built-in ones), and the nearest as a suggestion.
     fn unknown_spectrum(&self, name: &str, file: &SceneFile, key: &str) -> SceneError {
         let own: Vec<&str> = file.spectra.keys().map(String::as_str).collect();
-        let known = own.iter().copied().chain(cie::ILLUMINANT_NAMES);
+        let known = own.iter().copied().chain(cie::illuminant_names());
         let nearest = known
             .clone()
             .map(|k| {
@@ -161,7 +181,7 @@ impl Loader {
         let mut message = format!(
             "`{key}`: unknown spectrum `{}` (built-in: {}; the scene's [spectra]: {})",
             truncated(name),
-            cie::ILLUMINANT_NAMES.join(", "),
+            cie::illuminant_names().join(", "),
             if own.is_empty() {
                 "none".to_string()
             } else {

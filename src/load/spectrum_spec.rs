@@ -3,8 +3,11 @@
 //! - `0.5`: constant
 //! - `"D65"`: a built-in illuminant or a name from the scene's [spectra]
 //! - `[[400, 0.1], [700, 0.9]]`: a table of (nm, value), piecewise linear
-//! - `{ file = "red.csv" }`: a CSV table next to the scene
+//! - `{ file = "red.csv" }`: a CSV table next to the scene (`column` picks
+//!   a value column of a file with several, by header name or from 1)
 //! - `{ blackbody = 2856 }`: Planck's law at that temperature in kelvin
+//! - `{ daylight = 5500 }`: the CIE D-series illuminant of that correlated
+//!   colour temperature
 //! - `{ rgb = [0.8, 0.2, 0.1] }`: linear sRGB, upsampled to a smooth spectrum
 //! - `{ constant = 0.5 }`
 //!
@@ -21,13 +24,29 @@ pub enum SpectrumSpec {
     Constant(f32),
     Named(String),
     Table(Vec<[f32; 2]>),
-    File { path: PathBuf, scale: f32 },
-    Blackbody { kelvin: f32, scale: f32 },
-    Rgb { rgb: [f32; 3], scale: f32 },
+    File {
+        path: PathBuf,
+        scale: f32,
+        column: Option<Column>,
+    },
+    Blackbody {
+        kelvin: f32,
+        scale: f32,
+    },
+    Daylight {
+        kelvin: f32,
+        scale: f32,
+    },
+    Rgb {
+        rgb: [f32; 3],
+        scale: f32,
+    },
 }
 
+pub use crate::spectrum::csv::Column;
+
 const FORMS: &str = "a number, a name such as \"D65\", a table [[nm, value], ...], \
-or a table with one of `file`, `blackbody`, `rgb`, `constant` (and optionally `scale`)";
+or a table with one of `file`, `blackbody`, `daylight`, `rgb`, `constant` (and optionally `scale`)";
 
 impl<'de> Deserialize<'de> for SpectrumSpec {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -78,21 +97,33 @@ impl<'de> Visitor<'de> for SpectrumVisitor {
 
     fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
         let mut file: Option<PathBuf> = None;
+        let mut column: Option<Column> = None;
         let mut blackbody: Option<f32> = None;
+        let mut daylight: Option<f32> = None;
         let mut rgb: Option<[f32; 3]> = None;
         let mut constant: Option<f32> = None;
         let mut scale: Option<f32> = None;
         while let Some(key) = map.next_key::<String>()? {
             match key.as_str() {
                 "file" => file = Some(map.next_value()?),
+                "column" => column = Some(map.next_value()?),
                 "blackbody" => blackbody = Some(map.next_value()?),
+                "daylight" => daylight = Some(map.next_value()?),
                 "rgb" => rgb = Some(map.next_value()?),
                 "constant" => constant = Some(map.next_value()?),
                 "scale" => scale = Some(map.next_value()?),
                 other => {
                     return Err(de::Error::unknown_field(
                         other,
-                        &["file", "blackbody", "rgb", "constant", "scale"],
+                        &[
+                            "file",
+                            "column",
+                            "blackbody",
+                            "daylight",
+                            "rgb",
+                            "constant",
+                            "scale",
+                        ],
                     ))
                 }
             }
@@ -100,16 +131,26 @@ impl<'de> Visitor<'de> for SpectrumVisitor {
         let scale_or_one = scale.unwrap_or(1.0);
         let forms = file.is_some() as u8
             + blackbody.is_some() as u8
+            + daylight.is_some() as u8
             + rgb.is_some() as u8
             + constant.is_some() as u8;
         if forms != 1 {
             return Err(de::Error::custom(format!(
-                "a spectrum table needs exactly one of `file`, `blackbody`, `rgb`, `constant` (found {forms})"
+                "a spectrum table needs exactly one of `file`, `blackbody`, `daylight`, `rgb`, `constant` (found {forms})"
             )));
+        }
+        if column.is_some() && file.is_none() {
+            return Err(de::Error::custom("`column` picks a column of a `file`"));
         }
         Ok(if let Some(path) = file {
             SpectrumSpec::File {
                 path,
+                scale: scale_or_one,
+                column,
+            }
+        } else if let Some(kelvin) = daylight {
+            SpectrumSpec::Daylight {
+                kelvin,
                 scale: scale_or_one,
             }
         } else if let Some(kelvin) = blackbody {
@@ -159,9 +200,36 @@ mod tests {
             parse("s = { file = \"a.csv\", scale = 2 }").unwrap(),
             SpectrumSpec::File {
                 path: "a.csv".into(),
+                scale: 2.0,
+                column: None,
+            }
+        );
+        assert_eq!(
+            parse("s = { file = \"a.csv\", column = \"n\" }").unwrap(),
+            SpectrumSpec::File {
+                path: "a.csv".into(),
+                scale: 1.0,
+                column: Some(Column::Name("n".into())),
+            }
+        );
+        assert_eq!(
+            parse("s = { file = \"a.csv\", column = 2 }").unwrap(),
+            SpectrumSpec::File {
+                path: "a.csv".into(),
+                scale: 1.0,
+                column: Some(Column::Index(2)),
+            }
+        );
+        assert_eq!(
+            parse("s = { daylight = 5500, scale = 2 }").unwrap(),
+            SpectrumSpec::Daylight {
+                kelvin: 5500.0,
                 scale: 2.0
             }
         );
+        assert!(parse("s = { rgb = [1, 1, 1], column = 2 }")
+            .unwrap_err()
+            .contains("`column` picks a column of a `file`"));
         assert_eq!(
             parse("s = { blackbody = 2856 }").unwrap(),
             SpectrumSpec::Blackbody {
@@ -271,6 +339,7 @@ impl<'de> Visitor<'de> for IorVisitor {
             "file" => IorSpec::Spectrum(SpectrumSpec::File {
                 path: map.next_value()?,
                 scale: 1.0,
+                column: None,
             }),
             other => {
                 return Err(de::Error::unknown_field(

@@ -211,34 +211,90 @@ pub fn srgb_decode(v: f32) -> f32 {
 }
 
 /// Standard illuminants prism knows by name, with their relative spectral
-/// power as tabulated by the CIE. `E` is the equal-energy illuminant.
-pub const ILLUMINANT_NAMES: [&str; 7] = ["D65", "D50", "A", "E", "FL2", "FL7", "FL11"];
-
-/// A named CIE illuminant as tabulated (relative units, not normalised).
-pub fn illuminant(name: &str) -> Option<&'static TabulatedSpectrum> {
-    static TABLES: OnceLock<Vec<(&'static str, TabulatedSpectrum)>> = OnceLock::new();
-    let tables = TABLES.get_or_init(|| {
-        let sources: [(&str, &str); 7] = [
+/// power as tabulated by the CIE. `E` is the equal-energy illuminant; the
+/// lamps of CIE 15:2018 (the FL, HP and LED series) come from
+/// `spectra/cie_lamps.csv`.
+fn illuminants() -> &'static [(String, TabulatedSpectrum)] {
+    static TABLES: OnceLock<Vec<(String, TabulatedSpectrum)>> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        let sources: [(&str, &str); 4] = [
             ("D65", include_str!("../../spectra/cie_d65.csv")),
             ("D50", include_str!("../../spectra/cie_d50.csv")),
             ("A", include_str!("../../spectra/cie_a.csv")),
             ("E", "300,1\n830,1\n"),
-            ("FL2", include_str!("../../spectra/cie_fl2.csv")),
-            ("FL7", include_str!("../../spectra/cie_fl7.csv")),
-            ("FL11", include_str!("../../spectra/cie_fl11.csv")),
         ];
-        sources
+        let mut tables: Vec<(String, TabulatedSpectrum)> = sources
             .iter()
             .map(|(name, text)| {
                 let t = csv::parse(text).expect("embedded illuminant table is valid");
-                (
-                    *name,
-                    TabulatedSpectrum::new(t.wavelengths, t.columns[0].clone()),
-                )
+                let table = TabulatedSpectrum::new(t.wavelengths, t.columns[0].clone());
+                (name.to_string(), table)
             })
-            .collect()
+            .collect();
+        let lamps = csv::parse(include_str!("../../spectra/cie_lamps.csv"))
+            .expect("embedded lamp table is valid");
+        let names = lamps
+            .header
+            .as_ref()
+            .expect("the lamp table names its columns");
+        for (name, column) in names[1..].iter().zip(&lamps.columns) {
+            let table = TabulatedSpectrum::new(lamps.wavelengths.clone(), column.clone());
+            tables.push((name.clone(), table));
+        }
+        tables
+    })
+}
+
+/// The names of the built-in illuminants, in order.
+pub fn illuminant_names() -> Vec<&'static str> {
+    illuminants().iter().map(|(n, _)| n.as_str()).collect()
+}
+
+/// A named CIE illuminant as tabulated (relative units, not normalised).
+pub fn illuminant(name: &str) -> Option<&'static TabulatedSpectrum> {
+    illuminants()
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, t)| t)
+}
+
+/// The CIE D-series illuminant of correlated colour temperature `kelvin`
+/// (4000 to 25 000 K), relative spectral power from 300 to 830 nm (5 nm,
+/// linear between, as colour-science's D-series):
+/// the chromaticity on the daylight locus (CIE 15:2004 eq. 3.3-3.4), M1 and
+/// M2 rounded to three decimals as CIE 15 does, and the basis functions
+/// S0, S1, S2. The kelvin are today's: the historical D65 is 6504 K.
+pub fn daylight(kelvin: f32) -> Option<TabulatedSpectrum> {
+    let (x, y) = daylight_xy(kelvin)?;
+    let m = 0.0241 + 0.2562 * x - 0.7341 * y;
+    let round = |v: f64| (v * 1000.0).round() / 1000.0;
+    let m1 = round((-1.3515 - 1.7703 * x + 5.9114 * y) / m);
+    let m2 = round((0.0300 - 31.4424 * x + 30.0717 * y) / m);
+    static BASIS: OnceLock<csv::SpectralTable> = OnceLock::new();
+    let basis = BASIS.get_or_init(|| {
+        csv::parse(include_str!("../../spectra/cie_d_series_basis.csv"))
+            .expect("embedded basis table is valid")
     });
-    tables.iter().find(|(n, _)| *n == name).map(|(_, t)| t)
+    let values = (0..basis.wavelengths.len())
+        .map(|i| {
+            let [s0, s1, s2] = [0, 1, 2].map(|k| basis.columns[k][i] as f64);
+            (s0 + m1 * s1 + m2 * s2) as f32
+        })
+        .collect();
+    Some(TabulatedSpectrum::new(basis.wavelengths.clone(), values))
+}
+
+/// The chromaticity of the daylight locus at `kelvin` (CIE 15:2004).
+pub fn daylight_xy(kelvin: f32) -> Option<(f64, f64)> {
+    let t = kelvin as f64;
+    let x = if (4000.0..=7000.0).contains(&t) {
+        -4.6070e9 / t.powi(3) + 2.9678e6 / t.powi(2) + 0.09911e3 / t + 0.244063
+    } else if t > 7000.0 && t <= 25_000.0 {
+        -2.0064e9 / t.powi(3) + 1.9018e6 / t.powi(2) + 0.24748e3 / t + 0.237040
+    } else {
+        return None;
+    };
+    Some((x, -3.0 * x * x + 2.870 * x - 0.275))
 }
 
 /// The D65 illuminant, as the white of sRGB.
@@ -249,6 +305,29 @@ pub fn d65() -> &'static TabulatedSpectrum {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The D-series at D65's historical CCT (6500 × 1.4388 / 1.4380 K) is
+    /// the tabulated D65, and D50's is D50.
+    #[test]
+    fn daylight_at_the_historical_cct_is_the_standard_illuminant() {
+        for (name, cct) in [("D65", 6500.0f32), ("D50", 5000.0)] {
+            let made = daylight(cct * 1.4388 / 1.4380).unwrap();
+            let table = illuminant(name).unwrap();
+            // Over the rendered range, to the tables' 5 significant digits
+            // and the interpolators' differences (colour-science aligns
+            // the whole illuminant, prism its basis functions).
+            for nm in 360..=830 {
+                let (a, b) = (made.eval(nm as f32), table.eval(nm as f32));
+                assert!(
+                    (a - b).abs() < 1e-3 * b.max(10.0),
+                    "{name} at {nm}: {a} vs {b}"
+                );
+            }
+        }
+        assert!(daylight(3999.0).is_none() && daylight(25_001.0).is_none());
+        assert!(illuminant("LED-B3").is_some() && illuminant("FL3.15").is_some());
+        assert!(illuminant_names().len() > 40);
+    }
 
     #[test]
     fn lookups_interpolate_the_table_linearly() {

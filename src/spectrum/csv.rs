@@ -22,6 +22,53 @@ pub struct SpectralTable {
     pub note: Option<String>,
 }
 
+/// Which value column of a multi-column file: a header's name, or its
+/// position counting from 1 (the wavelength column not counted).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(untagged)]
+pub enum Column {
+    Index(usize),
+    Name(String),
+}
+
+impl SpectralTable {
+    /// The value column `which` names (a header name, or a position from
+    /// 1), or the only one; a file of several needs `which`.
+    pub fn column(&self, which: Option<&Column>) -> Result<usize, String> {
+        let names: Vec<&str> = match &self.header {
+            Some(h) => h[1..].iter().map(String::as_str).collect(),
+            None => Vec::new(),
+        };
+        let listed = || {
+            if names.is_empty() {
+                format!(
+                    "{} value columns, unnamed: pick one by position from 1",
+                    self.columns.len()
+                )
+            } else {
+                format!("columns: {}", names.join(", "))
+            }
+        };
+        match which {
+            None if self.columns.len() == 1 => Ok(0),
+            None => Err(format!(
+                "the file has {} value columns: say which with `column` (a name or a position from 1; {})",
+                self.columns.len(),
+                listed()
+            )),
+            Some(Column::Index(i)) if (1..=self.columns.len()).contains(i) => Ok(i - 1),
+            Some(Column::Index(i)) => Err(format!(
+                "`column = {i}`: the file has {} value columns, numbered from 1",
+                self.columns.len()
+            )),
+            Some(Column::Name(n)) => names
+                .iter()
+                .position(|h| h.trim() == n)
+                .ok_or_else(|| format!("no column named `{n}` ({})", listed())),
+        }
+    }
+}
+
 /// A wavelength unit a file may name.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Unit {
@@ -86,6 +133,23 @@ impl fmt::Display for CsvError {
 
 impl std::error::Error for CsvError {}
 
+/// The fields of a line: separated by semicolons (with decimal commas, as
+/// spreadsheets write CSV where the comma is the decimal mark), by commas,
+/// or by tabs and spaces (where a comma, not being the separator, is a
+/// decimal mark).
+fn split_fields(line: &str) -> Vec<String> {
+    let decimal_comma = |f: &str| f.trim().replace(',', ".");
+    if line.contains(';') {
+        line.split(';').map(decimal_comma).collect()
+    } else if line.contains('\t') {
+        line.split_whitespace().map(decimal_comma).collect()
+    } else if line.contains(',') {
+        line.split(',').map(|f| f.trim().to_string()).collect()
+    } else {
+        line.split_whitespace().map(str::to_string).collect()
+    }
+}
+
 /// Parses a spectral table, checking that wavelengths are finite, positive
 /// and strictly increasing and that every value is finite.
 pub fn parse(text: &str) -> Result<SpectralTable, CsvError> {
@@ -109,11 +173,7 @@ pub fn parse(text: &str) -> Result<SpectralTable, CsvError> {
             }
             continue;
         }
-        let fields: Vec<&str> = if line.contains(',') {
-            line.split(',').map(str::trim).collect()
-        } else {
-            line.split_whitespace().collect()
-        };
+        let fields = split_fields(line);
         let err = |message: String| CsvError {
             line: line_no,
             message,
@@ -127,8 +187,8 @@ pub fn parse(text: &str) -> Result<SpectralTable, CsvError> {
         let numbers = match parsed {
             Ok(n) => n,
             Err(_) if table.wavelengths.is_empty() && table.header.is_none() => {
-                header_unit = Unit::named_in(fields[0]).or_else(|| Unit::named_in(line));
-                table.header = Some(fields.iter().map(|s| s.to_string()).collect());
+                header_unit = Unit::named_in(&fields[0]).or_else(|| Unit::named_in(line));
+                table.header = Some(fields.iter().map(|s| s.trim().to_string()).collect());
                 continue;
             }
             Err(_) => return Err(err(format!("not a number in `{line}`"))),
@@ -206,6 +266,38 @@ mod tests {
         assert_eq!(t.header.unwrap(), vec!["wavelength_nm", "n", "k"]);
         assert_eq!(t.wavelengths, vec![400.0, 500.0]);
         assert_eq!(t.columns, vec![vec![1.5, 1.4], vec![0.1, 0.2]]);
+    }
+
+    #[test]
+    fn semicolons_and_tabs_take_decimal_commas() {
+        let t = parse("nm;R;G\n400;0,5;0,25\n410,5;0,6;0,3\n").unwrap();
+        assert_eq!(t.header.unwrap(), vec!["nm", "R", "G"]);
+        assert_eq!(t.wavelengths, vec![400.0, 410.5]);
+        assert_eq!(t.columns, vec![vec![0.5, 0.6], vec![0.25, 0.3]]);
+        let t = parse("400\t0,5\n410\t0,75\n").unwrap();
+        assert_eq!(t.columns, vec![vec![0.5, 0.75]]);
+    }
+
+    #[test]
+    fn a_column_is_picked_by_name_or_position_and_several_need_one() {
+        let t = parse("nm,n,k\n400,1.5,0.1\n500,1.4,0.2\n").unwrap();
+        assert_eq!(t.column(Some(&Column::Name("k".into()))), Ok(1));
+        assert_eq!(t.column(Some(&Column::Index(1))), Ok(0));
+        let e = t.column(None).unwrap_err();
+        assert!(
+            e.contains("2 value columns") && e.contains("columns: n, k"),
+            "{e}"
+        );
+        assert!(t
+            .column(Some(&Column::Index(3)))
+            .unwrap_err()
+            .contains("numbered from 1"));
+        assert!(t
+            .column(Some(&Column::Name("x".into())))
+            .unwrap_err()
+            .contains("no column named `x`"));
+        let one = parse("400,1\n500,2\n").unwrap();
+        assert_eq!(one.column(None), Ok(0));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Spectral quantities: wavelengths sampled per path, the spectra that are
 //! evaluated at them, CIE colorimetry and RGB upsampling.
 
+pub mod cct;
 pub mod cie;
 pub mod csv;
 pub mod rgb2spec;
