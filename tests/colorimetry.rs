@@ -220,3 +220,81 @@ fn daylight_by_temperature_emits_and_white_balances() {
     .to_string();
     assert!(e.contains("4000–25000 K"), "{e}");
 }
+
+/// Photometric inputs and the absolute film: an emitter of 100 cd/m² reads
+/// Y = 100; a white Lambertian floor under 1000 lux reads 1000/π cd/m²,
+/// and under a 1000 lm point light 2 m above it (1000/4π cd, so 1000/16π
+/// lux) 1000/(16π²).
+#[test]
+fn photometric_units_in_and_out() {
+    let render_y = |body: &str, spp: u32| {
+        let loaded = crate::common::scene(&format!(
+            r#"
+            [camera]
+            position = [0, 1, 0]
+            look_at = [0, 0, 0]
+            up = [0, 0, 1]
+            fov = 10
+            [film]
+            resolution = [4, 4]
+            spp = {spp}
+            photometric = true
+            colour_space = "xyz"
+            [integrator]
+            max_depth = 1
+            [materials.white]
+            type = "diffuse"
+            reflectance = 1
+            {body}
+            "#
+        ));
+        let film = crate::common::render_film(&loaded, 2);
+        // The output's Y per unit of the film's: 683 lm/W × Σ ȳ.
+        let k = loaded.settings.film.colour.rgb(Vec3::Y).y as f64;
+        assert!((k / (683.0 * cie::cmfs().y_integral as f64) - 1.0).abs() < 1e-6);
+        let (mut mean, mut var) = (0.0, 0.0);
+        for y in 0..4 {
+            for x in 0..4 {
+                let (m, v) = film.luminance_and_variance(x, y);
+                mean += m * k / 16.0;
+                var += v * k * k / 256.0;
+            }
+        }
+        (mean, var.sqrt())
+    };
+    let floor = r#"
+        [[shape]]
+        type = "quad"
+        vertices = [[-5, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]
+        material = "white"
+    "#;
+    let (y, e) = render_y(
+        r#"[[shape]]
+        type = "quad"
+        vertices = [[-5, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]
+        emission = "A"
+        luminance = 100
+        two_sided = true"#,
+        64,
+    );
+    assert!((y - 100.0).abs() < 5.0 * e + 1e-3, "emitter: {y} ± {e}");
+    let (y, e) = render_y(
+        &format!("{floor}\n[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = \"D65\"\nlux = 1000\n"),
+        64,
+    );
+    let expected = 1000.0 / std::f64::consts::PI;
+    assert!(
+        (y - expected).abs() < 5.0 * e + 1e-2,
+        "under 1000 lux: {y} ± {e}, expected {expected}"
+    );
+    let (y, e) = render_y(
+        &format!("{floor}\n[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\npower = \"D65\"\nlumens = 1000\n"),
+        64,
+    );
+    // The floor seen is 0.17 wide at 2 m: cos³ falls 1% at its edge.
+    let expected = 1000.0 / (16.0 * std::f64::consts::PI.powi(2));
+    assert!(
+        (y - expected).abs() < 0.01 * expected + 5.0 * e,
+        "under 1000 lm: {y} ± {e}, expected {expected}"
+    );
+}

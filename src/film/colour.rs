@@ -194,6 +194,15 @@ impl ColourTransform {
         }
     }
 
+    /// The same transform with its output multiplied by `k` (absolute
+    /// photometric units: 683 lm/W × Σ ȳ makes Y luminance in cd/m²).
+    pub fn scaled(self, k: f32) -> Self {
+        Self {
+            xyz_to_rgb: self.xyz_to_rgb * k,
+            ..self
+        }
+    }
+
     /// Linear RGB of XYZ.
     #[inline]
     pub fn rgb(&self, xyz: Vec3) -> Vec3 {

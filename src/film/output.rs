@@ -207,7 +207,8 @@ pub fn write_film_exr(film: &Film, settings: &FilmSettings, path: &Path) -> Resu
         image
             .write()
             .to_file(tmp)
-            .with_context(|| format!("cannot write {}", tmp.display()))
+            .with_context(|| format!("cannot write {}", tmp.display()))?;
+        super::spectral_exr::sort_header_attributes(tmp)
     })
 }
 
@@ -323,7 +324,8 @@ pub fn write_rgb_exr_in(
         image
             .write()
             .to_file(tmp)
-            .with_context(|| format!("cannot write {}", tmp.display()))
+            .with_context(|| format!("cannot write {}", tmp.display()))?;
+        super::spectral_exr::sort_header_attributes(tmp)
     })
 }
 

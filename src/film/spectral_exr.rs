@@ -219,7 +219,7 @@ pub fn write_image(img: SpectralImage, path: &Path) -> Result<()> {
 /// The exr crate writes custom attributes in hash-map order, different on
 /// every run; sorted, the same image gives the same bytes. The header keeps
 /// its size, so the offset table after it stays right.
-fn sort_header_attributes(path: &Path) -> Result<()> {
+pub(super) fn sort_header_attributes(path: &Path) -> Result<()> {
     use std::io::{Read, Seek, SeekFrom, Write};
     let cannot = || format!("cannot read back {}", path.display());
     let mut file = std::fs::OpenOptions::new()

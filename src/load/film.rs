@@ -45,7 +45,12 @@ impl Loader {
             }
         }
         let white_balance = self.white_balance(file)?;
-        let colour = ColourTransform::new(f.colour_space, f.observer, white_balance.as_ref());
+        let mut colour = ColourTransform::new(f.colour_space, f.observer, white_balance.as_ref());
+        if f.photometric {
+            // Y = 683 lm/W × ∫ L ȳ dλ: the film's Y is ∫ L ȳ dλ / Σ ȳ.
+            let y_sum = f.observer.cmfs().y_integral as f64;
+            colour = colour.scaled((crate::spectrum::cie::LUMINOUS_EFFICACY * y_sum) as f32);
+        }
         let display_colour =
             ColourTransform::new(f.display.space(), f.observer, white_balance.as_ref());
         check_film_size(width, height, f.spectral_buckets).map_err(|e| self.error(e))?;

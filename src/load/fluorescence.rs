@@ -42,7 +42,7 @@ impl Loader {
         ];
         let matrix = match (spec.donaldson, triplet) {
             (Some(path), [false, false, false]) => self.donaldson_file(path, key)?,
-            (None, [true, true, true]) => self.from_spectra(spec, file, key)?,
+            (None, [true, true, true]) => self.triplet_matrix(spec, file, key)?,
             (Some(_), _) => {
                 return Err(self.error(format!(
                     "`{key}`: give either `donaldson` or `excitation`, `emission` and `quantum_yield`, not both"
@@ -133,7 +133,7 @@ impl Loader {
     /// D(λx, λm) = Q a(λx) λx e(λm) / ∫ e(λ) λ dλ for λm ≥ λx: photons
     /// absorbed with probability a, a share Q of them re-emitted with the
     /// emission spectrum's (energy) shape, each with its own energy hc/λm.
-    fn from_spectra(
+    fn triplet_matrix(
         &self,
         spec: &FluorescenceSpec,
         file: &SceneFile,

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
+use super::exact;
 use super::spectrum_spec::{IorSpec, SpectrumSpec};
 use crate::film::{ColourSpace, Display, Gamut, Tonemap};
 use crate::integrator::IntegratorSpec;
@@ -122,6 +123,8 @@ pub struct PointLightSpec {
     pub intensity: Option<SpectrumSpec>,
     /// Total emitted power per nm instead of `intensity`.
     pub power: Option<SpectrumSpec>,
+    /// The luminous flux in lumens: scales `intensity` or `power`.
+    pub lumens: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -137,6 +140,9 @@ pub struct SpotLightSpec {
     pub intensity: Option<SpectrumSpec>,
     /// Total emitted power per nm instead of `intensity`.
     pub power: Option<SpectrumSpec>,
+    /// The luminous flux into the cone in lumens: scales `intensity` or
+    /// `power`.
+    pub lumens: Option<f32>,
     /// Half-angle in degrees where the light ends (default 30).
     pub cone_angle: Option<f32>,
     /// Half-angle in degrees where it starts to fall off (default:
@@ -152,6 +158,9 @@ pub struct DirectionalLightSpec {
     pub direction: [f32; 3],
     /// Irradiance on a surface facing the light, a spectrum.
     pub irradiance: SpectrumSpec,
+    /// The illuminance in lux on a surface facing the light: scales
+    /// `irradiance`.
+    pub lux: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -217,6 +226,9 @@ pub struct FilmSpec {
     pub seed: u64,
     /// Exposure in stops applied to the PNG (the EXR stays radiometric).
     pub exposure: f32,
+    /// The EXRs' XYZ and RGB in absolute units: Y is luminance in cd/m²
+    /// (683 lm/W × ∫ L ȳ dλ) for emission in W·m⁻²·sr⁻¹·nm⁻¹.
+    pub photometric: bool,
     /// Tone map for the PNG.
     pub tonemap: Tonemap,
     /// Wavelength range [min, max] in nm of the spectral buckets.
@@ -250,6 +262,7 @@ impl Default for FilmSpec {
             max_depth: None,
             seed: 0,
             exposure: 0.0,
+            photometric: false,
             tonemap: Tonemap::Clamp,
             spectral_range: [380.0, 780.0],
             spectral_buckets: 40,
@@ -430,6 +443,9 @@ pub struct ShapeCommon {
     pub emission: Option<SpectrumSpec>,
     /// Multiplies `emission`.
     pub emission_scale: Option<f32>,
+    /// Instead of `emission_scale`: the emission's luminance in cd/m²
+    /// (683 lm/W × ∫ L ȳ dλ, with `emission` in W·m⁻²·sr⁻¹·nm⁻¹).
+    pub luminance: Option<f32>,
     /// Emit from both faces (default: only the front, by winding order).
     pub two_sided: Option<bool>,
     /// Reverse the winding (and so the front face and normals).
@@ -515,80 +531,4 @@ pub struct RotateSpec {
     #[serde(deserialize_with = "exact::array")]
     pub axis: [f32; 3],
     pub degrees: f32,
-}
-
-/// Fixed-length arrays read exactly: the toml crate fills `[f32; 3]` from
-/// the first numbers of a longer array without a word, so `resolution =
-/// [16, 16, 16]` would pass for [16, 16].
-mod exact {
-    use serde::de::{Deserialize, Deserializer, Error, SeqAccess, Visitor};
-
-    fn sized<E: Error, T, const N: usize>(v: Vec<T>) -> Result<[T; N], E> {
-        let n = v.len();
-        v.try_into()
-            .map_err(|_| E::invalid_length(n, &format!("an array of {N} numbers").as_str()))
-    }
-
-    /// An array of N values; anything else (`"512x512"`) is refused with
-    /// the form expected (`[a, b]`).
-    struct Array<T, const N: usize>(Vec<T>);
-
-    impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Array<T, N> {
-        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-            d.deserialize_seq(ArrayVisitor::<T, N>(std::marker::PhantomData))
-        }
-    }
-
-    struct ArrayVisitor<T, const N: usize>(std::marker::PhantomData<T>);
-
-    impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for ArrayVisitor<T, N> {
-        type Value = Array<T, N>;
-
-        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-            let names = ["a", "b", "c", "d"];
-            let form: Vec<&str> = names.iter().copied().cycle().take(N).collect();
-            write!(f, "an array of {N} numbers, written [{}]", form.join(", "))
-        }
-
-        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
-            let mut v = Vec::with_capacity(N.min(16));
-            while let Some(x) = seq.next_element()? {
-                v.push(x);
-            }
-            Ok(Array(v))
-        }
-    }
-
-    pub fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
-    where
-        D: Deserializer<'de>,
-        T: Deserialize<'de>,
-    {
-        sized(Array::<T, N>::deserialize(d)?.0)
-    }
-
-    pub fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
-    where
-        D: Deserializer<'de>,
-        T: Deserialize<'de>,
-    {
-        Option::<Array<T, N>>::deserialize(d)?
-            .map(|a| sized(a.0))
-            .transpose()
-    }
-
-    /// A quad's four corners of three coordinates.
-    pub fn quad<'de, D>(d: D) -> Result<[[f32; 3]; 4], D::Error>
-    where
-        D: Deserializer<'de>,
-    {
-        let corners = Vec::<Vec<f32>>::deserialize(d)?
-            .into_iter()
-            .map(sized::<D::Error, f32, 3>)
-            .collect::<Result<Vec<_>, _>>()?;
-        let n = corners.len();
-        corners
-            .try_into()
-            .map_err(|_| D::Error::invalid_length(n, &"four corners"))
-    }
 }

@@ -208,10 +208,23 @@ impl Loader {
         };
         // Radiant intensity from `intensity`, or from `power` spread over
         // the solid angle the light fills.
-        let intensity = |intensity, power, solid_angle: f32| match (intensity, power) {
-            (Some(i), None) => spectrum(i, "intensity"),
-            (None, Some(p)) => Ok(spectrum(p, "power")?.scaled(1.0 / solid_angle)),
-            _ => Err(self.error(format!("`{key}`: give either `intensity` or `power`"))),
+        // With `lumens`, the spectrum's shape scaled to that flux.
+        let intensity = |intensity, power, solid_angle: f32, lumens: Option<f32>| {
+            let i = match (intensity, power) {
+                (Some(i), None) => spectrum(i, "intensity")?,
+                (None, Some(p)) => spectrum(p, "power")?.scaled(1.0 / solid_angle),
+                _ => return Err(self.error(format!("`{key}`: give either `intensity` or `power`"))),
+            };
+            match lumens {
+                None => Ok(i),
+                Some(_) if spec.common.scale.is_some() => {
+                    Err(self.error(format!("`{key}`: give `scale` or `lumens`, not both")))
+                }
+                Some(lm) => {
+                    let i = self.photometric(i, lm, &format!("{key}.lumens"))?;
+                    Ok(i.scaled(1.0 / solid_angle))
+                }
+            }
         };
         match &spec.kind {
             LightKind::Directional(d) => {
@@ -220,6 +233,13 @@ impl Loader {
                     return Err(self.error(format!("`{key}.direction` must not be zero")));
                 }
                 let e = spectrum(&d.irradiance, "irradiance")?;
+                let e = match d.lux {
+                    None => e,
+                    Some(_) if spec.common.scale.is_some() => {
+                        return Err(self.error(format!("`{key}`: give `scale` or `lux`, not both")))
+                    }
+                    Some(lux) => self.photometric(e, lux, &format!("{key}.lux"))?,
+                };
                 Ok(Light::Directional(DirectionalLight::new(
                     direction.normalize(),
                     e,
@@ -227,7 +247,7 @@ impl Loader {
             }
             LightKind::Point(p) => {
                 let position = point("position", p.position)?;
-                let i = intensity(p.intensity.as_ref(), p.power.as_ref(), 4.0 * PI)?;
+                let i = intensity(p.intensity.as_ref(), p.power.as_ref(), 4.0 * PI, p.lumens)?;
                 Ok(Light::Point(PointLight::new(position, i, None)))
             }
             LightKind::Spot(s) => {
@@ -258,7 +278,12 @@ impl Loader {
                 // 2 sin²(θ/2) so that narrow cones keep their digits.
                 let half_sin2 = |degrees: f32| (0.5 * degrees.to_radians()).sin().powi(2);
                 let solid_angle = 2.0 * PI * (half_sin2(start) + half_sin2(end));
-                let i = intensity(s.intensity.as_ref(), s.power.as_ref(), solid_angle)?;
+                let i = intensity(
+                    s.intensity.as_ref(),
+                    s.power.as_ref(),
+                    solid_angle,
+                    s.lumens,
+                )?;
                 Ok(Light::Point(PointLight::new(position, i, Some(cone))))
             }
         }

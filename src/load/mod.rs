@@ -5,6 +5,7 @@
 //! `format` is the file's schema, `import` reads OBJ and glTF assets.
 
 mod camera;
+mod exact;
 mod film;
 mod fluorescence;
 pub mod format;
@@ -16,6 +17,8 @@ mod messages;
 mod shapes;
 mod spectra;
 pub mod spectrum_spec;
+
+pub use spectra::spectrum;
 
 use std::cell::{Cell, RefCell};
 use std::collections::{BTreeMap, HashMap};
@@ -231,39 +234,6 @@ pub fn load_text(
     );
     loaded.report.inputs = inputs;
     Ok(loaded)
-}
-
-/// A spectrum written as a scene writes one (`value`: a number, a name
-/// such as "D65", a table of [nm, value] rows, `{ blackbody = 2856 }`, ...)
-/// for `role`: "emission" (illuminants normalised to luminance 1),
-/// "reflectance" (in [0, 1]) or "unbounded" (optical constants). Files it
-/// names are relative to `base`. Errors name `key`.
-pub fn spectrum(
-    value: toml::Value,
-    role: &str,
-    base: &Path,
-    key: &str,
-) -> Result<Spectrum, SceneError> {
-    let loader = Loader::new(PathBuf::from("<spectrum>"), base.to_path_buf());
-    let role = match role {
-        "emission" => spectra::Role::Emission,
-        "reflectance" => spectra::Role::Reflectance,
-        "unbounded" => spectra::Role::Unbounded,
-        other => {
-            return Err(loader.error(format!(
-                "unknown spectrum role {other:?}: emission, reflectance or unbounded"
-            )))
-        }
-    };
-    let spec: spectrum_spec::SpectrumSpec = value
-        .try_into()
-        .map_err(|e: toml::de::Error| loader.error(format!("`{key}`: {}", e.message())))?;
-    let mut empty = toml::Table::new();
-    empty.insert("camera".into(), toml::Value::Table(toml::Table::new()));
-    let file: SceneFile = toml::Value::Table(empty)
-        .try_into()
-        .map_err(|e: toml::de::Error| loader.error(e.to_string()))?;
-    loader.spectrum(&spec, role, &file, key)
 }
 
 /// What a scene's shapes depend on, as text: two loads with equal keys

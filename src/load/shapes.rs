@@ -122,9 +122,12 @@ impl Loader {
         let common = &shape.common;
         Ok(match &common.emission {
             None => {
-                if common.emission_scale.is_some() || common.two_sided.is_some() {
+                if common.emission_scale.is_some()
+                    || common.two_sided.is_some()
+                    || common.luminance.is_some()
+                {
                     return Err(self.error(format!(
-                        "`{key}`: `emission_scale` and `two_sided` need `emission`"
+                        "`{key}`: `emission_scale`, `luminance` and `two_sided` need `emission`"
                     )));
                 }
                 None
@@ -134,9 +137,17 @@ impl Loader {
                 if scale < 0.0 {
                     return Err(self.error(format!("`{key}.emission_scale` must not be negative")));
                 }
-                let spectrum = self
-                    .spectrum(spec, Role::Emission, file, &format!("{key}.emission"))?
-                    .scaled(scale);
+                let spectrum =
+                    self.spectrum(spec, Role::Emission, file, &format!("{key}.emission"))?;
+                let spectrum = match common.luminance {
+                    None => spectrum.scaled(scale),
+                    Some(_) if common.emission_scale.is_some() => {
+                        return Err(self.error(format!(
+                            "`{key}`: give `emission_scale` or `luminance`, not both"
+                        )))
+                    }
+                    Some(l) => self.photometric(spectrum, l, &format!("{key}.luminance"))?,
+                };
                 Some(Emission {
                     spectrum: self.checked_emission(spectrum, &format!("{key}.emission"))?,
                     texture: None,

@@ -3,7 +3,9 @@
 
 use glam::Vec3;
 
-use super::Loader;
+use std::path::{Path, PathBuf};
+
+use super::{spectrum_spec, Loader};
 use crate::load::format::SceneFile;
 use crate::load::spectrum_spec::SpectrumSpec;
 use crate::load::SceneError;
@@ -119,6 +121,28 @@ impl Loader {
         };
         self.check_range(&spectrum, role, key)?;
         Ok(spectrum)
+    }
+
+    /// `s` scaled so that its photometric value (683 lm/W × ∫ S ȳ dλ) is
+    /// `target`: cd/m², lumens or lux, as `key` says.
+    pub(super) fn photometric(
+        &self,
+        s: Spectrum,
+        target: f32,
+        key: &str,
+    ) -> Result<Spectrum, SceneError> {
+        if !(0.0..=MAX_RADIANCE).contains(&target) {
+            return Err(self.error(format!(
+                "`{key}` must be a number from 0 to {MAX_RADIANCE:e}, found {target}"
+            )));
+        }
+        let now = cie::photometric(&s);
+        if !(now > 0.0 && now.is_finite()) {
+            return Err(self.error(format!(
+                "`{key}`: the spectrum has no visible light to scale"
+            )));
+        }
+        Ok(s.scaled((target as f64 / now) as f32))
     }
 
     /// A built-in illuminant, normalised to luminance Y = 1.
@@ -268,4 +292,37 @@ fn truncated(name: &str) -> String {
     } else {
         format!("{}…", name.chars().take(60).collect::<String>())
     }
+}
+
+/// A spectrum written as a scene writes one (`value`: a number, a name
+/// such as "D65", a table of [nm, value] rows, `{ blackbody = 2856 }`, ...)
+/// for `role`: "emission" (illuminants normalised to luminance 1),
+/// "reflectance" (in [0, 1]) or "unbounded" (optical constants). Files it
+/// names are relative to `base`. Errors name `key`.
+pub fn spectrum(
+    value: toml::Value,
+    role: &str,
+    base: &Path,
+    key: &str,
+) -> Result<Spectrum, SceneError> {
+    let loader = Loader::new(PathBuf::from("<spectrum>"), base.to_path_buf());
+    let role = match role {
+        "emission" => Role::Emission,
+        "reflectance" => Role::Reflectance,
+        "unbounded" => Role::Unbounded,
+        other => {
+            return Err(loader.error(format!(
+                "unknown spectrum role {other:?}: emission, reflectance or unbounded"
+            )))
+        }
+    };
+    let spec: spectrum_spec::SpectrumSpec = value
+        .try_into()
+        .map_err(|e: toml::de::Error| loader.error(format!("`{key}`: {}", e.message())))?;
+    let mut empty = toml::Table::new();
+    empty.insert("camera".into(), toml::Value::Table(toml::Table::new()));
+    let file: SceneFile = toml::Value::Table(empty)
+        .try_into()
+        .map_err(|e: toml::de::Error| loader.error(e.to_string()))?;
+    loader.spectrum(&spec, role, &file, key)
 }

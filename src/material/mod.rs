@@ -356,7 +356,7 @@ impl Material {
                     geom.wo,
                 )
             }
-            Material::Pbr(m) => pbr_bsdf(m, geom, uv, wl),
+            Material::Pbr(m) => pbr::bsdf(m, geom, uv, wl),
             Material::Conductor { eta, k, alpha } => {
                 let (frame, ng) = facing_frame(geom);
                 let lobe = ConductorLobe::new(eta.sample(wl), k.sample(wl), *alpha);
@@ -377,7 +377,7 @@ impl Material {
             }
             Material::Dielectric {
                 opaque: Some(o), ..
-            } if o.at(uv).is_some() => pbr_bsdf(&o.pbr, geom, uv, wl),
+            } if o.at(uv).is_some() => pbr::bsdf(&o.pbr, geom, uv, wl),
             Material::Dielectric {
                 alpha,
                 tint,
@@ -529,59 +529,6 @@ impl Material {
             _ => None,
         }
     }
-}
-
-/// The glTF metallic-roughness BSDF of `m` at `uv`.
-fn pbr_bsdf(m: &PbrMaterial, geom: &ShadingGeometry, uv: Vec2, wl: &SampledWavelengths) -> Bsdf {
-    let (mut metallic, mut roughness) = (m.metallic, m.roughness);
-    if let Some(t) = &m.metallic_roughness {
-        let v = t.linear(uv);
-        roughness *= v.y;
-        metallic *= v.z;
-    }
-    let (frame, ng) = facing_frame(geom);
-    let mut lobe = PbrLobe::new(
-        m.base_color.sample(uv, wl),
-        metallic,
-        microfacet::alpha_from_roughness(roughness),
-        m.ior,
-    );
-    if m.layers != PbrLayers::default() {
-        lobe = lobe.with_layers(lobe_layers(&m.layers, uv, wl));
-    }
-    Bsdf::new(frame, ng, Lobe::Pbr(lobe), geom.wo)
-}
-
-/// The extension layers at `uv` for the path's wavelengths.
-fn lobe_layers(layers: &PbrLayers, uv: Vec2, wl: &SampledWavelengths) -> pbr::LobeLayers {
-    // A texture's channel at `uv`, 1 without the texture.
-    let channel = |t: &Option<TextureRef>, k: usize| t.as_ref().map_or(1.0, |t| t.linear(uv)[k]);
-    let mut at = pbr::LobeLayers::default();
-    if let Some(s) = &layers.specular {
-        at.specular_weight = s.weight * channel(&s.texture, 3);
-        at.specular_colour = s.colour.sample(uv, wl);
-    }
-    if let Some(s) = &layers.sheen {
-        let r = s.roughness * channel(&s.roughness_texture, 3);
-        at.sheen = Some((s.colour.sample(uv, wl), r * r));
-    }
-    if let Some(c) = &layers.clearcoat {
-        let roughness = c.roughness * channel(&c.roughness_texture, 1);
-        at.clearcoat = Some((
-            c.weight * channel(&c.texture, 0),
-            microfacet::alpha_from_roughness(roughness),
-        ));
-    }
-    if let Some(i) = &layers.iridescence {
-        let t = channel(&i.thickness_texture, 1);
-        at.film = Some(pbr::FilmAt {
-            weight: i.weight * channel(&i.texture, 0),
-            ior: i.ior,
-            thickness: i.thickness[0] + (i.thickness[1] - i.thickness[0]) * t,
-            lambda: wl.lambda,
-        });
-    }
-    at
 }
 
 /// A frame whose normal is the shading normal turned to the side of the

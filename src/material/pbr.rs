@@ -37,13 +37,15 @@
 
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::bsdf::{to_side_of, upper, BsdfEval, BsdfFlags, LobeSample, TransportMode};
 use super::cosine_hemisphere;
 use super::microfacet::{reflect, Ggx};
+use super::{facing_frame, microfacet, Bsdf, Lobe, PbrLayers, PbrMaterial, ShadingGeometry};
 use super::{sheen, thin_film};
-use crate::spectrum::SampledSpectrum;
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::texture::TextureRef;
 
 /// Smallest α used: below it the specular lobe would be a Dirac delta and a
 /// mixture of a delta and a diffuse lobe cannot be MIS-weighted per sample.
@@ -328,4 +330,62 @@ impl PbrLobe {
             1.0,
         ))
     }
+}
+
+/// The glTF metallic-roughness BSDF of `m` at `uv`.
+pub(super) fn bsdf(
+    m: &PbrMaterial,
+    geom: &ShadingGeometry,
+    uv: Vec2,
+    wl: &SampledWavelengths,
+) -> Bsdf {
+    let (mut metallic, mut roughness) = (m.metallic, m.roughness);
+    if let Some(t) = &m.metallic_roughness {
+        let v = t.linear(uv);
+        roughness *= v.y;
+        metallic *= v.z;
+    }
+    let (frame, ng) = facing_frame(geom);
+    let mut lobe = PbrLobe::new(
+        m.base_color.sample(uv, wl),
+        metallic,
+        microfacet::alpha_from_roughness(roughness),
+        m.ior,
+    );
+    if m.layers != PbrLayers::default() {
+        lobe = lobe.with_layers(lobe_layers(&m.layers, uv, wl));
+    }
+    Bsdf::new(frame, ng, Lobe::Pbr(lobe), geom.wo)
+}
+
+/// The extension layers at `uv` for the path's wavelengths.
+fn lobe_layers(layers: &PbrLayers, uv: Vec2, wl: &SampledWavelengths) -> LobeLayers {
+    // A texture's channel at `uv`, 1 without the texture.
+    let channel = |t: &Option<TextureRef>, k: usize| t.as_ref().map_or(1.0, |t| t.linear(uv)[k]);
+    let mut at = LobeLayers::default();
+    if let Some(s) = &layers.specular {
+        at.specular_weight = s.weight * channel(&s.texture, 3);
+        at.specular_colour = s.colour.sample(uv, wl);
+    }
+    if let Some(s) = &layers.sheen {
+        let r = s.roughness * channel(&s.roughness_texture, 3);
+        at.sheen = Some((s.colour.sample(uv, wl), r * r));
+    }
+    if let Some(c) = &layers.clearcoat {
+        let roughness = c.roughness * channel(&c.roughness_texture, 1);
+        at.clearcoat = Some((
+            c.weight * channel(&c.texture, 0),
+            microfacet::alpha_from_roughness(roughness),
+        ));
+    }
+    if let Some(i) = &layers.iridescence {
+        let t = channel(&i.thickness_texture, 1);
+        at.film = Some(FilmAt {
+            weight: i.weight * channel(&i.texture, 0),
+            ior: i.ior,
+            thickness: i.thickness[0] + (i.thickness[1] - i.thickness[0]) * t,
+            lambda: wl.lambda,
+        });
+    }
+    at
 }

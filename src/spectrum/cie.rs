@@ -152,6 +152,16 @@ impl ColourMatching {
     }
 }
 
+/// Photopic maximum luminous efficacy, lm/W (CIE 1931: Km).
+pub const LUMINOUS_EFFICACY: f64 = 683.0;
+
+/// The photometric value of a spectral radiometric quantity: 683 lm/W ×
+/// ∫ S ȳ dλ over the CIE 1931 1 nm table (cd/m² of a radiance in
+/// W·m⁻²·sr⁻¹·nm⁻¹, lumens of a power in W/nm, lux of an irradiance).
+pub fn photometric(s: &Spectrum) -> f64 {
+    LUMINOUS_EFFICACY * spectrum_to_xyz(s).y as f64 * cmfs().y_integral as f64
+}
+
 /// The CIE 1931 2° observer.
 pub fn cmfs() -> &'static ColourMatching {
     Observer::Cie1931.cmfs()
