@@ -500,21 +500,28 @@ fn run(cli: Cli) -> Result<ExitCode> {
             column,
             under,
             observer,
-        } => {
-            let observer =
-                prism::spectrum::cie::Observer::from_name(&observer).ok_or_else(|| {
-                    anyhow::anyhow!(
-                    "--observer {observer}: one of cie1931-2, cie1964-10, cie2015-2, cie2015-10"
-                )
-                })?;
-            let query = SpectrumQuery {
-                spectrum: &spectrum,
-                column: column.as_deref(),
-                under: under.as_deref(),
-                observer,
-            };
-            print!("{}", describe_spectrum(&query)?);
-            Ok(ExitCode::SUCCESS)
-        }
+        } => spectrum_command(&spectrum, column.as_deref(), under.as_deref(), &observer),
     }
+}
+
+/// `prism spectrum`.
+fn spectrum_command(
+    spectrum: &str,
+    column: Option<&str>,
+    under: Option<&str>,
+    observer: &str,
+) -> Result<ExitCode> {
+    let observer = prism::spectrum::cie::Observer::from_name(observer).ok_or_else(|| {
+        anyhow::anyhow!(
+            "--observer {observer}: one of cie1931-2, cie1964-10, cie2015-2, cie2015-10"
+        )
+    })?;
+    let query = SpectrumQuery {
+        spectrum,
+        column,
+        under,
+        observer,
+    };
+    print!("{}", describe_spectrum(&query)?);
+    Ok(ExitCode::SUCCESS)
 }

@@ -9,7 +9,8 @@ use super::{spectrum_spec, Loader};
 use crate::load::format::SceneFile;
 use crate::load::spectrum_spec::SpectrumSpec;
 use crate::load::SceneError;
-use crate::spectrum::{cie, csv, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::spectrum::formats;
+use crate::spectrum::{cie, Spectrum, TabulatedSpectrum, LAMBDA_MAX, LAMBDA_MIN};
 
 /// Which physical quantity a spectrum stands for: it decides how RGB is
 /// upsampled and which values are allowed.
@@ -60,7 +61,7 @@ impl Loader {
                 let text = crate::input::read_to_string(&full).map_err(|e| {
                     self.error(format!("`{key}`: spectrum file {}: {e}", full.display()))
                 })?;
-                let t = csv::parse(&text)
+                let t = formats::parse_any(&text)
                     .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
                 if let Some(note) = &t.note {
                     self.warn(format!("`{key}`: {}: {note}", full.display()));

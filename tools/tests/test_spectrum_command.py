@@ -63,3 +63,39 @@ def test_a_reflectance_under_an_illuminant_gives_its_cielab(prism):
     assert np.abs(got["XYZ"] - xyz).max() < 2e-3, (got["XYZ"], xyz)
     assert np.abs(got["CIELAB"] - lab).max() < 2e-3, (got["CIELAB"], lab)
     assert "CCT" not in got, out
+
+
+def test_cgats_and_spdx_files_read_as_colour_science_reads_their_data(prism, tmp_path):
+    """A ColorChecker measured as i1Profiler writes it (CGATS.17, percent,
+    380-730 nm in 10 nm): each sample is a column named by SAMPLE_NAME, and
+    its CIELAB under D65 is colour-science's. An IES TM-27 file of LED-B3
+    has LED-B3's chromaticity."""
+    checker = colour.SDS_COLOURCHECKERS["BabelColor Average"]
+    bands = np.arange(380, 731, 10)
+    names = list(checker)[:6]
+    lines = ["CGATS.17", 'ORIGINATOR "test"', "BEGIN_DATA_FORMAT",
+             "SAMPLE_ID SAMPLE_NAME " + " ".join(f"SPECTRAL_NM{b}" for b in bands), "END_DATA_FORMAT",
+             f"NUMBER_OF_SETS {len(names)}", "BEGIN_DATA"]
+    for i, name in enumerate(names):
+        values = " ".join(f"{100 * checker[name][b]:.4f}" for b in bands)
+        lines.append(f'{i + 1} "{name}" {values}')
+    lines.append("END_DATA")
+    cgats = tmp_path / "checker.txt"
+    cgats.write_text("\n".join(lines) + "\n")
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    e = np.interp(GRID, d65.wavelengths, d65.values, left=0, right=0)
+    white = e @ CMF
+    for name in names:
+        got, out = report(prism, cgats, "--column", name, "--under", "D65")
+        r = np.interp(GRID, bands, [checker[name][b] for b in bands], left=0, right=0)
+        lab = colour.XYZ_to_Lab((r * e) @ CMF / white[1], colour.XYZ_to_xy(white))
+        assert np.abs(got["CIELAB"] - lab).max() < 2e-3, (name, got["CIELAB"], lab)
+
+    led = colour.SDS_ILLUMINANTS["LED-B3"]
+    spdx = tmp_path / "led.spdx"
+    data = "\n".join(f'<SpectralData wavelength="{w:g}">{v:.6g}</SpectralData>' for w, v in zip(led.wavelengths, led.values))
+    spdx.write_text('<?xml version="1.0"?>\n<IESTM2714 xmlns="iestm2714" version="1.0">\n<Header><Manufacturer>test</Manufacturer></Header>\n'
+                    f"<SpectralDistribution><SpectralQuantity>relative</SpectralQuantity>\n{data}\n</SpectralDistribution></IESTM2714>\n")
+    got, out = report(prism, spdx)
+    xyz = xyz_of(led)
+    assert np.abs(got["xy"] - xyz[:2] / xyz.sum()).max() < 2e-5, out
