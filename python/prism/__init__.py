@@ -595,8 +595,8 @@ class Image:
 def read(path: Union[str, os.PathLike]) -> Image:
     """Reads a prism EXR or spectral EXR (any Fichet 2021 spectral EXR)
     back into an `Image`. ``xyz`` comes back where the file says how its
-    RGB was made (prism's spectral EXRs do); ``spectral`` where it has
-    spectral channels."""
+    RGB was made (prism's EXRs and spectral EXRs do); ``spectral`` where it
+    has spectral channels."""
     return Image(_native.read(os.fspath(path)))
 
 
