@@ -298,3 +298,51 @@ fn photometric_units_in_and_out() {
         "under 1000 lm: {y} ± {e}, expected {expected}"
     );
 }
+
+/// `[measured.NAME]`: a measured set (CGATS) becomes one diffuse material a
+/// sample, `NAME.SAMPLE`, with the sample's reflectance.
+#[test]
+fn a_measured_set_becomes_one_material_a_sample() {
+    let dir = tempfile::tempdir().unwrap();
+    let cgats =
+        "CGATS.17\nBEGIN_DATA_FORMAT\nSAMPLE_ID SAMPLE_NAME SPECTRAL_NM400 SPECTRAL_NM700\n\
+                 END_DATA_FORMAT\nBEGIN_DATA\n1 \"dark skin\" 5.0 40.0\n2 A2 80 90\nEND_DATA\n";
+    std::fs::write(dir.path().join("checker.txt"), cgats).unwrap();
+    let scene = |extra: &str| {
+        let path = dir.path().join("s.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "[camera]\nposition = [0, 0, -5]\nlook_at = [0, 0, 0]\n\
+                 [measured.cc]\nfile = \"checker.txt\"\n{extra}\n\
+                 [[shape]]\ntype = \"quad\"\nvertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]\n\
+                 material = \"cc.dark skin\"\n"
+            ),
+        )
+        .unwrap();
+        prism::load::load(&path)
+    };
+    let loaded = scene("").unwrap();
+    let reflectances: Vec<f32> = loaded
+        .scene
+        .materials
+        .iter()
+        .filter_map(|m| match m {
+            prism::material::Material::Diffuse { reflectance } => {
+                Some(reflectance.factor.eval(550.0))
+            }
+            _ => None,
+        })
+        .collect();
+    // The two samples (percent read as such), then the default material.
+    assert_eq!(reflectances.len(), 3, "{reflectances:?}");
+    assert!(
+        (reflectances[0] - 0.85).abs() < 1e-6 && (reflectances[1] - 0.225).abs() < 1e-6,
+        "{reflectances:?}"
+    );
+    let e = scene("[materials.\"cc.A2\"]\ntype = \"diffuse\"")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("`cc.A2` is also defined"), "{e}");
+}

@@ -26,6 +26,10 @@ pub struct SceneFile {
     pub spectra: BTreeMap<String, SpectrumSpec>,
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
+    /// Measured sets: every sample of a spectrum file of named columns (a
+    /// CGATS measurement) as a diffuse material `SET.SAMPLE`.
+    #[serde(default)]
+    pub measured: BTreeMap<String, MeasuredSet>,
     #[serde(default, rename = "shape")]
     pub shapes: Vec<ShapeSpec>,
     /// Lights that are not shapes: point, spot and directional.
@@ -37,6 +41,14 @@ pub struct SceneFile {
     pub medium: Option<MediumSpec>,
     /// Metres per scene unit (default 1), for media coefficients given per metre.
     pub units: Option<f32>,
+}
+
+/// A `[measured.NAME]` table.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredSet {
+    /// The file: CGATS.17, or a CSV with a header naming its columns.
+    pub file: PathBuf,
 }
 
 /// The `[environment]` table: a constant radiance, or an equirectangular

@@ -5,7 +5,7 @@ use super::fluorescence::FluorescenceSpec;
 use super::spectra::Role;
 use super::Loader;
 use crate::load::format::{MaterialSpec, SceneFile};
-use crate::load::spectrum_spec::IorSpec;
+use crate::load::spectrum_spec::{Column, IorSpec, SpectrumSpec};
 use crate::load::SceneError;
 use crate::material::microfacet::alpha_from_roughness;
 use crate::material::{ior, metals, Ior, Material};
@@ -13,6 +13,57 @@ use crate::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use crate::texture::{Encoding, TextureRef};
 
 impl Loader {
+    /// Adds the materials of the `[measured]` sets: a diffuse material
+    /// `SET.SAMPLE` for every named column of each set's file.
+    pub(super) fn add_measured_materials(&self, file: &mut SceneFile) -> Result<(), SceneError> {
+        for (set, spec) in std::mem::take(&mut file.measured) {
+            let key = format!("measured.{set}.file");
+            let full = self.input_file(&spec.file, &key)?;
+            let text = crate::input::read_to_string(&full)
+                .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
+            let table = crate::spectrum::formats::parse_any(&text)
+                .map_err(|e| self.error(format!("`{key}`: {}: {e}", full.display())))?;
+            let Some(header) = table
+                .header
+                .as_ref()
+                .filter(|h| h.len() == table.columns.len() + 1)
+            else {
+                return Err(self.error(format!(
+                    "`{key}`: {} names no samples: a CGATS file, or a CSV whose header names its columns",
+                    full.display()
+                )));
+            };
+            for (k, sample) in header[1..].iter().enumerate() {
+                let name = format!("{set}.{sample}");
+                if header[1..k + 1].contains(sample) {
+                    return Err(self.error(format!(
+                        "`{key}`: {} names the sample `{sample}` twice",
+                        full.display()
+                    )));
+                }
+                if file.materials.contains_key(&name) {
+                    return Err(self.error(format!(
+                        "`measured.{set}`: the material `{name}` is also defined under [materials]"
+                    )));
+                }
+                let reflectance = SpectrumSpec::File {
+                    path: spec.file.clone(),
+                    scale: 1.0,
+                    column: Some(Column::Name(sample.clone())),
+                };
+                let texture = None;
+                file.materials.insert(
+                    name,
+                    MaterialSpec::Diffuse {
+                        reflectance,
+                        texture,
+                    },
+                );
+            }
+        }
+        Ok(())
+    }
+
     pub(super) fn material(
         &self,
         name: &str,

@@ -394,6 +394,7 @@ impl Loader {
             ));
         }
 
+        self.add_measured_materials(&mut file)?;
         let film = self.film(&file)?;
         let integrator = self.integrator(&mut file)?;
         let camera = self.camera(&file, &film)?;
