@@ -2,7 +2,8 @@
 """Regenerate prism's embedded colorimetric tables from colour-science.
 
 Run from the repository root:  tools/.venv/bin/python tools/gen_tables.py [OUT_DIR]
-Writes spectra/cie_1931_2deg.csv and spectra/cie_*.csv (illuminants), or into
+Writes spectra/cie_1931_2deg.csv and spectra/cie_*.csv (observers, illuminants,
+the D-series basis and the lamps), or into
 OUT_DIR. The renderer embeds these files at compile time, so provenance is
 this one command.
 """
@@ -66,11 +67,6 @@ def main():
     write("cie_a.csv", ["wavelength_nm", "value"],
           "CIE standard illuminant A (2856 K Planckian), relative spectral power",
           [(w, a[w]) for w in a.wavelengths])
-    for fl in ["FL2", "FL7", "FL11"]:
-        sd = colour.SDS_ILLUMINANTS[fl]
-        write(f"cie_{fl.lower()}.csv", ["wavelength_nm", "value"],
-              f"CIE illuminant {fl} (fluorescent), relative spectral power, 380-780 nm 5 nm",
-              [(w, sd[w]) for w in sd.wavelengths])
     # The D-series basis functions S0, S1, S2 at their own 5 nm (prism
     # interpolates linearly, as colour-science's D-series illuminants do):
     # `{ daylight = K }` and daylight white balance.

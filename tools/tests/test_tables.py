@@ -36,13 +36,25 @@ def test_cmfs_match_cie_1931():
 @pytest.mark.parametrize("name,sd", [
     ("cie_d65.csv", lambda: colour.sd_CIE_illuminant_D_series(colour.temperature.CCT_to_xy_CIE_D(6500 * 1.4388 / 1.4380))),
     ("cie_a.csv", lambda: colour.sd_CIE_standard_illuminant_A(colour.SpectralShape(300, 830, 1))),
-    ("cie_fl2.csv", lambda: colour.SDS_ILLUMINANTS["FL2"]),
-    ("cie_fl11.csv", lambda: colour.SDS_ILLUMINANTS["FL11"]),
 ])
 def test_illuminants_match(name, sd):
     table = read_csv(name)
     sd = sd()
     np.testing.assert_allclose(table[:, 1], [sd[w] for w in table[:, 0]], rtol=1e-9)
+
+
+def test_lamps_and_the_d_series_basis_match():
+    header = next(line for line in (SPECTRA / "cie_lamps.csv").read_text().splitlines() if not line.startswith("#"))
+    lamps = read_csv("cie_lamps.csv")
+    names = header.split(",")[1:]
+    assert {"FL2", "FL7", "FL11", "FL3.15", "HP5", "LED-B3", "LED-V2"} <= set(names)
+    for k, name in enumerate(names):
+        sd = colour.SDS_ILLUMINANTS[name]
+        np.testing.assert_allclose(lamps[:, k + 1], [sd[w] for w in lamps[:, 0]], rtol=1e-9, err_msg=name)
+    basis = read_csv("cie_d_series_basis.csv")
+    functions = colour.colorimetry.SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES
+    for k, name in enumerate(["S0", "S1", "S2"]):
+        np.testing.assert_allclose(basis[:, k + 1], [functions[name][w] for w in basis[:, 0]], rtol=1e-9, atol=1e-12)
 
 
 def test_d65_white_point_through_the_tables():
