@@ -70,6 +70,26 @@ fn d65_lit_white_reflector_through_the_film() {
     }
 }
 
+/// A camera looking straight at a two-sided emitter that fills its view,
+/// with `film` keys and the emitter's `emission`.
+fn emitter_filling_the_view(film: &str, emission: &str) -> prism::load::Loaded {
+    crate::common::scene(&format!(
+        r#"
+        [camera]
+        position = [0, 0, -1]
+        look_at = [0, 0, 0]
+        fov = 30
+        [film]
+        {film}
+        [[shape]]
+        type = "quad"
+        vertices = [[-2, -2, 0], [-2, 2, 0], [2, 2, 0], [2, -2, 0]]
+        emission = {emission}
+        two_sided = true
+        "#
+    ))
+}
+
 /// Built-in illuminants are scaled to Y = 1 under CIE 1931 whatever the
 /// film's observer (docs/scene-format.md): an emitter seen directly has
 /// Y = 1 under CIE 1931 and, under another observer, the Y of the same
@@ -85,23 +105,8 @@ fn illuminants_keep_their_cie_1931_scale_under_every_observer() {
             (Observer::Cie1964, "cie1964-10"),
             (Observer::Cie2015_10, "cie2015-10"),
         ] {
-            let loaded = crate::common::scene(&format!(
-                r#"
-                [camera]
-                position = [0, 0, -1]
-                look_at = [0, 0, 0]
-                fov = 30
-                [film]
-                resolution = [4, 4]
-                spp = 4096
-                observer = "{key}"
-                [[shape]]
-                type = "quad"
-                vertices = [[-2, -2, 0], [-2, 2, 0], [2, 2, 0], [2, -2, 0]]
-                emission = "{name}"
-                two_sided = true
-                "#
-            ));
+            let film = format!("resolution = [4, 4]\nspp = 4096\nobserver = \"{key}\"");
+            let loaded = emitter_filling_the_view(&film, &format!("\"{name}\""));
             let film = crate::common::render_film(&loaded, 2);
             let expected = observer.cmfs().spectrum_to_xyz(&spectrum).y as f64 / y_1931;
             let (mut mean, mut var) = (0.0, 0.0);
@@ -178,23 +183,8 @@ fn spectrum_columns_are_picked_by_name_or_position() {
 #[test]
 fn daylight_by_temperature_emits_and_white_balances() {
     let scene = |emission: &str, balance: &str| {
-        crate::common::scene(&format!(
-            r#"
-            [camera]
-            position = [0, 0, -1]
-            look_at = [0, 0, 0]
-            fov = 30
-            [film]
-            resolution = [2, 2]
-            spp = 256
-            white_balance = {balance}
-            [[shape]]
-            type = "quad"
-            vertices = [[-2, -2, 0], [-2, 2, 0], [2, 2, 0], [2, -2, 0]]
-            emission = {emission}
-            two_sided = true
-            "#
-        ))
+        let film = format!("resolution = [2, 2]\nspp = 256\nwhite_balance = {balance}");
+        emitter_filling_the_view(&film, emission)
     };
     let mean_rgb = |loaded: &prism::load::Loaded| {
         let film = crate::common::render_film(loaded, 1);

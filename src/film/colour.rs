@@ -14,6 +14,7 @@
 
 use glam::{DMat3, DVec2, DVec3, Mat3, Vec3};
 
+use crate::spectrum::cct::xy;
 use crate::spectrum::cie::{self, Observer};
 use crate::spectrum::Spectrum;
 
@@ -223,10 +224,7 @@ impl ColourTransform {
 /// white balance.
 pub fn adopted_neutral(space: ColourSpace, observer: Observer, white_balanced: bool) -> DVec2 {
     match (space, white_balanced) {
-        (ColourSpace::Xyz, false) => {
-            let w = render_white(observer).unwrap_or(DVec3::ONE);
-            DVec2::new(w.x, w.y) / (w.x + w.y + w.z)
-        }
+        (ColourSpace::Xyz, false) => xy(render_white(observer).unwrap_or(DVec3::ONE)),
         _ => space.chromaticities().white,
     }
 }
@@ -308,11 +306,11 @@ mod tests {
                         ColourSpace::Xyz => rgb,
                         _ => rgb_to_xyz(space.chromaticities()) * rgb,
                     };
-                    let xy = DVec2::new(xyz.x, xyz.y) / (xyz.x + xyz.y + xyz.z);
                     let neutral = adopted_neutral(space, observer, balance.is_some());
                     assert!(
-                        (xy - neutral).abs().max_element() < 1e-5,
-                        "{space:?} {observer:?}: {xy} {neutral}"
+                        (xy(xyz) - neutral).abs().max_element() < 1e-5,
+                        "{space:?} {observer:?}: {} {neutral}",
+                        xy(xyz)
                     );
                 }
             }

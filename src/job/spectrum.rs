@@ -9,7 +9,7 @@ use anyhow::{anyhow, Result};
 use glam::DVec3;
 
 use crate::spectrum::cct::{cct_duv, uv_1960, uv_1976, xy};
-use crate::spectrum::cie::Observer;
+use crate::spectrum::cie::{self, Observer};
 use crate::spectrum::Spectrum;
 
 /// What `prism spectrum` is asked.
@@ -22,9 +22,6 @@ pub struct SpectrumQuery<'a> {
     pub under: Option<&'a str>,
     pub observer: Observer,
 }
-
-/// Photopic luminous efficacy, lm/W.
-const KM: f64 = 683.0;
 
 /// The report of `prism spectrum`.
 pub fn describe_spectrum(query: &SpectrumQuery) -> Result<String> {
@@ -41,14 +38,11 @@ pub fn describe_spectrum(query: &SpectrumQuery) -> Result<String> {
                 query.spectrum
             );
             chromaticity(&mut out, xyz, true);
-            let (y_1931, sum) = (
-                crate::spectrum::cie::spectrum_to_xyz(&s).y as f64,
-                cie_y_sum(),
-            );
             let _ = writeln!(
                 out,
-                "luminance: {:.6e} cd/m² for spectral radiance in W·m⁻²·sr⁻¹·nm⁻¹ ({KM} lm/W × ∫ S ȳ dλ, CIE 1931)",
-                KM * y_1931 * sum
+                "luminance: {:.6e} cd/m² for spectral radiance in W·m⁻²·sr⁻¹·nm⁻¹ ({} lm/W × ∫ S ȳ dλ, CIE 1931)",
+                cie::photometric(&s),
+                cie::LUMINOUS_EFFICACY
             );
         }
         Some(illuminant) => {
@@ -118,11 +112,6 @@ fn lab(xyz: DVec3, white: DVec3) -> DVec3 {
     };
     let (fx, fy, fz) = (f(xyz.x / white.x), f(xyz.y / white.y), f(xyz.z / white.z));
     DVec3::new(116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz))
-}
-
-/// Σ ȳ over the CIE 1931 1 nm table: ∫ S ȳ dλ = Y × this.
-fn cie_y_sum() -> f64 {
-    crate::spectrum::cie::cmfs().y_integral as f64
 }
 
 /// The spectrum an argument names: a file that exists (with `column`), a

@@ -104,11 +104,7 @@ impl Loader {
                 "film.white_balance",
             )?,
             Some(toml::Value::Table(t)) if t.len() == 1 && t.contains_key("temperature") => {
-                let kelvin = match &t["temperature"] {
-                    toml::Value::Float(k) => *k as f32,
-                    toml::Value::Integer(k) => *k as f32,
-                    _ => return Err(self.error(FORMS)),
-                };
+                let kelvin = kelvin_of(&t["temperature"]).ok_or_else(|| self.error(FORMS))?;
                 if !(1000.0..=40_000.0).contains(&kelvin) {
                     return Err(self.error(format!(
                         "`film.white_balance.temperature` = {kelvin} K is outside 1000–40000 K"
@@ -117,11 +113,7 @@ impl Loader {
                 Spectrum::Blackbody { kelvin, scale: 1.0 }
             }
             Some(toml::Value::Table(t)) if t.len() == 1 && t.contains_key("daylight") => {
-                let kelvin = match &t["daylight"] {
-                    toml::Value::Float(k) => *k as f32,
-                    toml::Value::Integer(k) => *k as f32,
-                    _ => return Err(self.error(FORMS)),
-                };
+                let kelvin = kelvin_of(&t["daylight"]).ok_or_else(|| self.error(FORMS))?;
                 let table = crate::spectrum::cie::daylight(kelvin).ok_or_else(|| {
                     self.error(format!(
                         "`film.white_balance.daylight` = {kelvin} K is outside the D series' 4000–25000 K"
@@ -207,4 +199,13 @@ pub fn check_spectral_layout(range: [f32; 2], buckets: u32) -> Result<(), String
         ));
     }
     Ok(())
+}
+
+/// A temperature in kelvin written as a TOML number.
+fn kelvin_of(v: &toml::Value) -> Option<f32> {
+    match v {
+        toml::Value::Float(k) => Some(*k as f32),
+        toml::Value::Integer(k) => Some(*k as f32),
+        _ => None,
+    }
 }

@@ -116,7 +116,7 @@ impl Fluorescence {
         guided.light = cells.iter().map(|e| (e.max(0.0) / mean) as f32).collect();
         guided.lit_cdf = Vec::with_capacity(self.cdf.len());
         for k in 0..self.nm {
-            let c = &self.cdf[k * (self.nx + 1)..(k + 1) * (self.nx + 1)];
+            let c = &self.cdf[self.sums(k)];
             let mut sum = 0.0f64;
             guided.lit_cdf.push(0.0);
             for i in 0..self.nx {
@@ -127,15 +127,23 @@ impl Fluorescence {
         guided
     }
 
+    /// Where emission cell `k`'s running sums lie in `cdf` (and `lit_cdf`).
+    #[inline]
+    fn sums(&self, k: usize) -> std::ops::Range<usize> {
+        k * (self.nx + 1)..(k + 1) * (self.nx + 1)
+    }
+
     /// The emission cell holding `m`, if the matrix has one there.
     #[inline]
-    fn column(&self, m: f32) -> Option<&[f32]> {
+    fn cell(&self, m: f32) -> Option<usize> {
         let k = (m - self.m0).floor();
-        if !(k >= 0.0 && (k as usize) < self.nm) {
-            return None;
-        }
-        let start = k as usize * (self.nx + 1);
-        Some(&self.cdf[start..start + self.nx + 1])
+        (k >= 0.0 && (k as usize) < self.nm).then_some(k as usize)
+    }
+
+    /// The running sums of the emission cell holding `m`.
+    #[inline]
+    fn column(&self, m: f32) -> Option<&[f32]> {
+        self.cell(m).map(|k| &self.cdf[self.sums(k)])
     }
 
     /// ∫ D(λx, m) dλx: the radiance factor emitted at `m` under light of
@@ -169,7 +177,7 @@ impl Fluorescence {
         let first_m = (self.m0 - LAMBDA_MIN) as usize;
         let mut out = vec![0.0; e.len()];
         for k in 0..self.nm {
-            let c = &self.cdf[k * (self.nx + 1)..(k + 1) * (self.nx + 1)];
+            let c = &self.cdf[self.sums(k)];
             out[first_m + k] = (0..self.nx)
                 .map(|i| (c[i + 1] - c[i]) as f64 * e[first_x + i])
                 .sum();
@@ -203,12 +211,10 @@ impl Fluorescence {
     /// with: that one where there is no guide, else the mixture with D × E.
     #[inline]
     pub fn sample_excitation_guided(&self, m: f32, u: f32) -> (f32, f32) {
-        let k = (m - self.m0).floor();
-        let (Some(c), false) = (self.column(m), self.lit_cdf.is_empty()) else {
+        let (Some(k), false) = (self.cell(m), self.lit_cdf.is_empty()) else {
             return (self.sample_excitation(m, u), 1.0);
         };
-        let start = k as usize * (self.nx + 1);
-        let lit = &self.lit_cdf[start..start + self.nx + 1];
+        let (c, lit) = (&self.cdf[self.sums(k)], &self.lit_cdf[self.sums(k)]);
         let (total, lit_total) = (c[self.nx], lit[self.nx]);
         if !(lit_total > 0.0 && total > 0.0) {
             return (self.sample_excitation(m, u), 1.0);

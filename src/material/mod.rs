@@ -432,21 +432,6 @@ impl Material {
         }
     }
 
-    /// A fluorescent material that draws its exciting wavelengths guided by
-    /// `light` (the scene's emission per 1 nm cell); others as they are.
-    pub fn guided_by(&self, light: &[f64]) -> Material {
-        match self {
-            Material::Fluorescent {
-                reflectance,
-                fluorescence,
-            } => Material::Fluorescent {
-                reflectance: reflectance.clone(),
-                fluorescence: Arc::new(fluorescence.guided_by(light)),
-            },
-            other => other.clone(),
-        }
-    }
-
     pub fn is_fluorescent(&self) -> bool {
         matches!(self, Material::Fluorescent { .. })
     }

@@ -122,14 +122,17 @@ pub struct Scene {
 /// one is exactly the other's colour transform. Fluorescent materials add
 /// what they re-emit under the lights (a violet lamp's light reaches the
 /// film as the green a highlighter makes of it).
-fn wavelength_distribution(lights: &LightSet, materials: &[Material]) -> WavelengthDistribution {
+/// `emission` is the lights' relative emission at the 1 nm cells' centres.
+fn wavelength_distribution(
+    mut emission: Vec<f64>,
+    materials: &[Material],
+) -> WavelengthDistribution {
     // Measured on the Cornell Box (the variance of two 64-spp renders, in
     // relMSE): half visible with the emission's square root, 11% below the
     // visible density alone; 20% or 30% visible the same within noise, the
     // emission itself (not its root) worse in blue.
     const VISIBLE: f64 = 0.5;
     let centres: Vec<f32> = WavelengthDistribution::centres().collect();
-    let mut emission = lights.relative_emission(&centres);
     for material in materials {
         if let Material::Fluorescent { fluorescence, .. } = material {
             let emitted = fluorescence.emitted_under(&emission);
@@ -159,14 +162,14 @@ fn wavelength_distribution(lights: &LightSet, materials: &[Material]) -> Wavelen
 }
 
 /// Fluorescent materials draw half their exciting wavelengths where the
-/// scene's lights emit (`Fluorescence::guided_by`).
-fn guide_fluorescence(materials: Vec<Material>, lights: &LightSet) -> Vec<Material> {
-    if !materials.iter().any(Material::is_fluorescent) {
-        return materials;
+/// scene's lights emit (`emission`, as `wavelength_distribution` takes it;
+/// see `Fluorescence::guided_by`).
+fn guide_fluorescence(materials: &mut [Material], emission: &[f64]) {
+    for material in materials {
+        if let Material::Fluorescent { fluorescence, .. } = material {
+            *fluorescence = Arc::new(fluorescence.guided_by(emission));
+        }
     }
-    let centres: Vec<f32> = WavelengthDistribution::centres().collect();
-    let emission = lights.relative_emission(&centres);
-    materials.iter().map(|m| m.guided_by(&emission)).collect()
 }
 
 static NEXT_SCENE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
@@ -212,8 +215,11 @@ impl Scene {
                 .map(|l| l.with_scene_bounds(sphere)),
         );
         let lights = LightSet::new(lights);
-        let wavelengths = wavelength_distribution(&lights, &materials);
-        let materials = guide_fluorescence(materials, &lights);
+        let centres: Vec<f32> = WavelengthDistribution::centres().collect();
+        let emission = lights.relative_emission(&centres);
+        let mut materials = materials;
+        guide_fluorescence(&mut materials, &emission);
+        let wavelengths = wavelength_distribution(emission, &materials);
         Scene {
             id: NEXT_SCENE_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             wavelengths,

@@ -52,12 +52,12 @@ impl Observer {
         Observer::Cie2015_10,
     ];
 
-    /// The name scene files use.
     /// The observer a `name` names (as `film.observer` writes it).
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|o| o.name() == name)
     }
 
+    /// The name scene files use.
     pub fn name(self) -> &'static str {
         match self {
             Observer::Cie1931 => "cie1931-2",
