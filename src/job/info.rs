@@ -36,20 +36,20 @@ pub fn describe(file: &Path) -> Result<String> {
         .filter_map(|k| spectral_exr::parse_reflective_name(k).map(|l| (l, k.as_str())))
         .collect();
     reflective.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (layout, wavelengths, planes): (&str, Vec<f64>, Vec<&Vec<f32>>) =
-        if !img.wavelengths.is_empty() || reflective.is_empty() {
-            (
-                "emissive S0",
-                img.wavelengths.clone(),
-                img.spectral.iter().collect(),
-            )
-        } else {
-            (
-                "reflective T",
-                reflective.iter().map(|r| r.0).collect(),
-                reflective.iter().map(|r| &img.other[r.1]).collect(),
-            )
-        };
+    let reflective_layout = img.wavelengths.is_empty() && !reflective.is_empty();
+    let (layout, wavelengths, planes): (&str, Vec<f64>, Vec<&Vec<f32>>) = if !reflective_layout {
+        (
+            "emissive S0",
+            img.wavelengths.clone(),
+            img.spectral.iter().collect(),
+        )
+    } else {
+        (
+            "reflective T",
+            reflective.iter().map(|r| r.0).collect(),
+            reflective.iter().map(|r| &img.other[r.1]).collect(),
+        )
+    };
     if wavelengths.is_empty() {
         let _ = writeln!(out, "no spectral channels");
     } else {
@@ -80,7 +80,7 @@ pub fn describe(file: &Path) -> Result<String> {
         }
         let _ = writeln!(out, "  non-finite spectral values: {bad}");
     }
-    let listed = |name: &str| layout == "reflective T" && reflective.iter().any(|r| r.1 == name);
+    let listed = |name: &str| reflective_layout && reflective.iter().any(|r| r.1 == name);
     for (name, plane) in img.other.iter().filter(|(k, _)| !listed(k)) {
         let (min, max, mean, non_finite) = stats(plane);
         let _ = writeln!(
