@@ -28,6 +28,7 @@ mod import;
 mod light_tracer;
 mod lights;
 mod media;
+mod medium_boundary;
 mod merge;
 mod progressive;
 mod scene_errors;

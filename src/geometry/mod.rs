@@ -21,6 +21,12 @@ pub struct Ray {
     /// Not necessarily normalised: shadow rays span origin → target with t ∈ (0, 1).
     pub dir: Vec3,
     pub t_max: f32,
+    /// The ray starts in free space (where a medium scatters), not on a
+    /// surface: a hit at any t > 0 counts. A ray from a surface ignores
+    /// hits within the triangle test's rounding bound of its origin,
+    /// which would be the surface it leaves; from a point near a surface
+    /// that bound would hide the surface itself.
+    pub in_free_space: bool,
 }
 
 /// Shadow rays stop this fraction short of their (already offset) target.
@@ -32,6 +38,16 @@ impl Ray {
             origin,
             dir,
             t_max: f32::INFINITY,
+            in_free_space: false,
+        }
+    }
+
+    /// The same ray, marked as starting in free space or not (see
+    /// `in_free_space`).
+    pub fn starting_in_free_space(self, in_free_space: bool) -> Self {
+        Self {
+            in_free_space,
+            ..self
         }
     }
 
@@ -42,6 +58,7 @@ impl Ray {
             origin,
             dir: target - origin,
             t_max: 1.0 - SHADOW_EPSILON,
+            in_free_space: false,
         }
     }
 }

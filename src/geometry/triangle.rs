@@ -17,6 +17,9 @@ pub struct RayShear {
     pub sx: f32,
     pub sy: f32,
     pub sz: f32,
+    /// The factor of the rounding bound that a hit's t must exceed: 3
+    /// (pbrt's), or 0 for a ray from free space (`Ray::in_free_space`).
+    pub t_bound_factor: f32,
 }
 
 impl RayShear {
@@ -40,6 +43,7 @@ impl RayShear {
             sx: -d[kx] / d[kz],
             sy: -d[ky] / d[kz],
             sz: 1.0 / d[kz],
+            t_bound_factor: if ray.in_free_space { 0.0 } else { 3.0 },
         }
     }
 }
@@ -113,8 +117,9 @@ pub fn intersect(s: &RayShear, p: &[Vec3; 3], t_max: f32) -> Option<TriangleHit>
     let delta_y = gamma(5) * (max_y + max_z);
     let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());
-    let delta_t =
-        3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv_det.abs();
+    let delta_t = s.t_bound_factor
+        * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e)
+        * inv_det.abs();
     if t <= delta_t {
         return None;
     }

@@ -54,6 +54,7 @@ pub struct PacketShear<L> {
     sx: L,
     sy: L,
     sz: L,
+    t_bound_factor: L,
 }
 
 impl<L: Lanes> PacketShear<L> {
@@ -65,6 +66,7 @@ impl<L: Lanes> PacketShear<L> {
             sx: L::splat(s.sx),
             sy: L::splat(s.sy),
             sz: L::splat(s.sz),
+            t_bound_factor: L::splat(s.t_bound_factor),
         }
     }
 }
@@ -179,7 +181,7 @@ fn intersect_lanes<L: Lanes>(
     let delta_e =
         L::splat(2.0) * (L::splat(gamma(2)) * max_x * max_y + delta_y * max_x + delta_x * max_y);
     let max_e = max3(e0, e1, e2);
-    let delta_t = L::splat(3.0)
+    let delta_t = s.t_bound_factor
         * (L::splat(gamma(3)) * max_e * max_z + delta_e * max_z + delta_z * max_e)
         * inv_det.abs();
     ok = ok & t.cmpgt(delta_t);

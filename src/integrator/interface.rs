@@ -79,7 +79,7 @@ pub fn trace(
             let speed = ray.dir.length();
             let d = hit.map_or(f32::INFINITY, |h| h.t * speed);
             if let Some(t) = volume::fly(m, wl, d, &mut optical_depth, flight) {
-                let p = ray.origin + ray.dir * (t / speed);
+                let p = flight_end(ray, t / speed, hit.as_ref());
                 ray.t_max = t / speed;
                 return Next::Medium { p, phase: m.phase };
             }
@@ -103,6 +103,27 @@ pub fn trace(
         }
     }
     Next::Lost
+}
+
+/// Where a free flight along `ray` ends, at parameter `t` before the
+/// surface `hit` that the ray was heading for: the point itself, or, when
+/// it lies within the hit's rounding error of the surface, the point
+/// offset to the ray's side of it. (Rounded to the far side, the point
+/// would be outside the medium: its next ray would miss the exit, or meet
+/// the surface again from outside and enter the medium a second time.)
+#[inline]
+pub fn flight_end(ray: &Ray, t: f32, hit: Option<&SurfaceHit>) -> Vec3 {
+    let p = ray.origin + ray.dir * t;
+    let Some(hit) = hit else {
+        return p;
+    };
+    let near = offset_ray_origin(hit.p, hit.p_err, hit.ng, -ray.dir);
+    let beyond = (p - near).dot(hit.ng) * ray.dir.dot(hit.ng) > 0.0;
+    if beyond {
+        near
+    } else {
+        p
+    }
 }
 
 /// What reaches the end of the segment `shadow` (from a point whose media

@@ -99,7 +99,7 @@ impl LightVertex<'_> {
         scene: &Scene,
         cs: &crate::camera::CameraSample,
     ) -> SampledSpectrum {
-        let (f, origin, stack) = match self.at {
+        let (f, shadow, stack) = match self.at {
             // The camera does not see a single-sided surface's back face.
             Scatterer::Surface { hit, .. }
                 if scene.hides_back_face(hit.material, hit.ng, -cs.wi) =>
@@ -111,25 +111,20 @@ impl LightVertex<'_> {
                 let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, cs.wi);
                 (
                     f,
-                    origin,
+                    Ray::towards(origin, cs.p_lens),
                     stack_towards(self.stack, medium, self.wo, cs.wi, hit.ng),
                 )
             }
             Scatterer::Medium { p, phase } => {
                 let f = SampledSpectrum::splat(phase.p(-self.wo, cs.wi));
-                (f, p, *self.stack)
+                let ray = Ray::towards(p, cs.p_lens).starting_in_free_space(true);
+                (f, ray, *self.stack)
             }
         };
         if f == SampledSpectrum::ZERO {
             return f;
         }
-        let tr = transmittance_to_camera(
-            scene,
-            &Ray::towards(origin, cs.p_lens),
-            &stack,
-            self.wl,
-            self.counters,
-        );
+        let tr = transmittance_to_camera(scene, &shadow, &stack, self.wl, self.counters);
         self.beta * f * tr * cs.weight
     }
 

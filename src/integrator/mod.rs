@@ -20,6 +20,7 @@ pub mod walk;
 use serde::Deserialize;
 
 pub use bdpt::Bdpt;
+pub use interface::flight_end;
 pub use light_tracer::LightTracer;
 pub use path::PathTracer;
 pub use sppm::{PhotonMap, Sppm};

@@ -210,9 +210,14 @@ impl PathTracer {
                         let f = phase.p(dir_in, wi);
                         (SampledSpectrum::splat(f), f)
                     },
-                    |wi, to| match to {
-                        Some(lp) => Ray::towards(p, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi)),
-                        None => Ray::new(p, wi),
+                    |wi, to| {
+                        match to {
+                            Some(lp) => {
+                                Ray::towards(p, offset_ray_origin(lp.p, lp.p_err, lp.n, -wi))
+                            }
+                            None => Ray::new(p, wi),
+                        }
+                        .starting_in_free_space(true)
                     },
                     |_| walk.stack,
                 )

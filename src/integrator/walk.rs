@@ -208,7 +208,7 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
                 let [u0, u1, _, u_rr] = visitor.numbers(ctx, walk);
                 let (wi, pdf) = phase.sample(dir_in, (u0, u1));
                 visitor.scattered(ctx.scene, walk, &event, wi, pdf, false);
-                walk.ray = Ray::new(p, wi);
+                walk.ray = Ray::new(p, wi).starting_in_free_space(true);
                 let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
                 if !walk
                     .flight

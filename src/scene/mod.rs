@@ -403,6 +403,7 @@ impl Scene {
                         origin: offset_ray_origin(hit.p, hit.p_err, hit.ng, r.dir),
                         dir: r.dir,
                         t_max: r.t_max - hit.t,
+                        in_free_space: false,
                     };
                 }
                 _ => {

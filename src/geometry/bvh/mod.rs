@@ -384,6 +384,7 @@ mod tests {
                 origin: o,
                 dir: d,
                 t_max: f32::INFINITY,
+                in_free_space: false,
             };
             assert!(bvh.intersect(&ray).is_none());
             assert!(!bvh.occluded(&ray));

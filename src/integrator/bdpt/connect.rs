@@ -73,7 +73,7 @@ pub(super) fn connect(
             return none;
         }
         let origin = offset_ray_origin(qs.p, qs.p_err, qs.ng, cs.wi);
-        let shadow = Ray::towards(origin, cs.p_lens);
+        let shadow = Ray::towards(origin, cs.p_lens).starting_in_free_space(!qs.on_surface());
         let tr = transmittance_to_camera(scene, &shadow, &qs.stack_towards(cs.wi), wl, counters);
         if tr == SampledSpectrum::ZERO {
             return none;
@@ -118,7 +118,8 @@ pub(super) fn connect(
         let shadow = match ls.point {
             Some(lp) => Ray::towards(origin, offset_ray_origin(lp.p, lp.p_err, lp.n, -ls.wi)),
             None => Ray::new(origin, ls.wi),
-        };
+        }
+        .starting_in_free_space(!pt.on_surface());
         let tr = transmittance(scene, &shadow, &pt.stack_towards(ls.wi), wl, counters);
         if tr == SampledSpectrum::ZERO {
             return none;
@@ -151,7 +152,7 @@ pub(super) fn connect(
         let to = offset_ray_origin(qs.p, qs.p_err, qs.ng, -w);
         let tr = transmittance(
             scene,
-            &Ray::towards(from, to),
+            &Ray::towards(from, to).starting_in_free_space(!pt.on_surface()),
             &pt.stack_towards(w),
             wl,
             counters,
