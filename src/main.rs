@@ -375,6 +375,7 @@ fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
 fn main() -> ExitCode {
     // First, before code that may use instructions this CPU lacks.
     prism::cpu::refuse_if_missing();
+    prism::memory::share_allocator_arenas();
     let cli = Cli::parse();
     match run(cli) {
         Ok(code) => code,

@@ -24,19 +24,16 @@ unsafe impl<T: Copy + Send> Send for HugeArray<T> {}
 unsafe impl<T: Copy + Sync> Sync for HugeArray<T> {}
 
 impl<T: Copy> HugeArray<T> {
-    /// Moves `items` over; their vector is freed once they are copied, so
-    /// that a build does not hold both longer than it must. Arrays of at
-    /// least 2 MiB are aligned to 2 MiB and advised before their first write.
-    pub fn from_vec(items: Vec<T>) -> Self {
-        Self::from_slice(&items)
-    }
-
-    fn from_slice(items: &[T]) -> Self {
-        let size = std::mem::size_of_val(items);
+    /// An empty array with room for exactly `capacity` items (which the
+    /// caller writes, then counts in `len`).
+    fn with_capacity(capacity: usize) -> Self {
+        let size = capacity
+            .checked_mul(std::mem::size_of::<T>())
+            .expect("an array's size fits in memory");
         if size == 0 {
             return Self {
                 ptr: NonNull::dangling(),
-                len: items.len(),
+                len: 0,
                 layout: Layout::new::<()>(),
             };
         }
@@ -45,7 +42,7 @@ impl<T: Copy> HugeArray<T> {
         } else {
             std::mem::align_of::<T>()
         };
-        let layout = Layout::from_size_align(size, align).expect("a slice's size fits a layout");
+        let layout = Layout::from_size_align(size, align).expect("an array's size fits a layout");
         // SAFETY: the layout has a non-zero size.
         let raw = unsafe { alloc::alloc(layout) };
         let Some(ptr) = NonNull::new(raw as *mut T) else {
@@ -54,13 +51,35 @@ impl<T: Copy> HugeArray<T> {
         if align == HUGE_PAGE {
             advise_huge(raw, size);
         }
-        // SAFETY: `ptr` holds `size` bytes, aligned for T, apart from `items`.
-        unsafe { std::ptr::copy_nonoverlapping(items.as_ptr(), ptr.as_ptr(), items.len()) };
         Self {
             ptr,
-            len: items.len(),
+            len: 0,
             layout,
         }
+    }
+
+    /// The array of `item(0)`, `item(1)` … `item(len − 1)`, made on every
+    /// thread: each writes its items to their pages first, so the kernel's
+    /// work of providing those pages is shared too.
+    pub fn filled_in_parallel(len: usize, item: impl Fn(usize) -> T + Sync) -> Self
+    where
+        T: Send,
+    {
+        use rayon::prelude::*;
+        struct Slots<T>(*mut T);
+        // SAFETY: every index is written by one task only (below).
+        unsafe impl<T: Send> Sync for Slots<T> {}
+        let mut array = Self::with_capacity(len);
+        let slots = Slots(array.ptr.as_ptr());
+        let slots = &slots;
+        (0..len).into_par_iter().with_min_len(4096).for_each(|i| {
+            // SAFETY: `i < len`, the capacity; each i is visited once.
+            unsafe { slots.0.add(i).write(item(i)) };
+        });
+        // Only now are the items counted: had `item` panicked, the array
+        // would drop holding none (T is Copy: nothing else to drop).
+        array.len = len;
+        array
     }
 }
 
@@ -104,7 +123,7 @@ impl<T: Copy> Deref for HugeArray<T> {
 impl<T: Copy> Drop for HugeArray<T> {
     fn drop(&mut self) {
         if self.layout.size() > 0 {
-            // SAFETY: allocated in `from_slice` with this layout.
+            // SAFETY: allocated in `with_capacity` with this layout.
             unsafe { alloc::dealloc(self.ptr.as_ptr() as *mut u8, self.layout) };
         }
     }
@@ -118,11 +137,24 @@ mod tests {
     fn holds_what_it_was_given() {
         for n in [0usize, 1, 1000, (HUGE_PAGE / 8) + 3] {
             let items: Vec<u64> = (0..n as u64).map(|i| i * 7 + 1).collect();
-            let array = HugeArray::from_slice(&items);
+            let array = HugeArray::filled_in_parallel(n, |i| items[i]);
             assert_eq!(&array[..], &items[..]);
             if n * 8 >= HUGE_PAGE {
                 assert_eq!(array.as_ptr() as usize % HUGE_PAGE, 0);
             }
         }
+    }
+
+    #[test]
+    fn fills_in_parallel() {
+        let n = HUGE_PAGE / 4 + 1;
+        let array = HugeArray::filled_in_parallel(n, |i| (i as u32).wrapping_mul(2_654_435_761));
+        assert_eq!(array.len(), n);
+        assert!(array
+            .iter()
+            .enumerate()
+            .all(|(i, &v)| v == (i as u32).wrapping_mul(2_654_435_761)));
+        assert_eq!(array.as_ptr() as usize % HUGE_PAGE, 0);
+        assert!(HugeArray::<u64>::filled_in_parallel(0, |_| 1).is_empty());
     }
 }

@@ -3,6 +3,7 @@
 //! makes. Scenes that differ only in camera, materials or other lights
 //! share one (`Scene::assemble`).
 
+use rayon::prelude::*;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
@@ -137,9 +138,11 @@ impl SceneGeometry {
             }
         }
         let (bvh, order) = Bvh::build(&triangles);
-        let triangles: Vec<[Vec3; 3]> = order.iter().map(|&i| triangles[i as usize]).collect();
+        // In parallel, as the BVH's build: faulting in these pages is much
+        // of the work on big meshes.
+        let triangles: Vec<[Vec3; 3]> = order.par_iter().map(|&i| triangles[i as usize]).collect();
         let mut shading: Vec<TriangleShading> =
-            order.iter().map(|&i| shading[i as usize]).collect();
+            order.par_iter().map(|&i| shading[i as usize]).collect();
         let mut lights = Vec::new();
         for (prim, &original) in order.iter().enumerate() {
             if let Some(e) = emitters[original as usize] {

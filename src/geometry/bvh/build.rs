@@ -5,6 +5,7 @@
 use glam::{Vec3, Vec4};
 
 use super::{WideNode, WIDTH};
+use crate::geometry::huge_pages::HugeArray;
 use crate::geometry::triangle4::Triangle4;
 use crate::geometry::Aabb;
 
@@ -22,10 +23,10 @@ struct Node {
 }
 
 impl Node {
-    fn new(bounds: &Aabb, offset: u32, count: u16) -> Self {
+    fn new(bounds: &Box4, offset: u32, count: u16) -> Self {
         Self {
-            min: bounds.min.extend(f32::from_bits(offset)),
-            max: bounds.max.extend(f32::from_bits(count as u32)),
+            min: bounds.min.truncate().extend(f32::from_bits(offset)),
+            max: bounds.max.truncate().extend(f32::from_bits(count as u32)),
         }
     }
 
@@ -53,24 +54,97 @@ const TRAVERSAL_COST: f32 = 1.0;
 const PARALLEL_MIN: usize = 16 * 1024;
 /// Past this depth the build splits at the median, which bounds the tree's depth.
 const SAH_MAX_DEPTH: usize = 40;
+/// Above this many primitives, a node's bins see a sample this big.
+const BINNING_SAMPLE: usize = 1 << 16;
+
+/// A box as two SIMD vectors (xyz; the w lanes are not part of it), so
+/// that a union is two instructions.
 #[derive(Clone, Copy)]
-struct BuildPrim {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
+struct Box4 {
+    min: Vec4,
+    max: Vec4,
 }
 
-/// The wide tree over primitive bounds, its bounds, and the order of the
-/// primitives that its leaves' ranges index (not yet packets).
-pub(super) fn build_boxes(bounds: &[Aabb]) -> (Vec<WideNode>, Aabb, Vec<u32>) {
-    let mut prims: Vec<BuildPrim> = bounds
-        .iter()
-        .enumerate()
-        .map(|(i, b)| BuildPrim {
-            bounds: *b,
-            centroid: b.centroid(),
-            index: i as u32,
-        })
+impl Box4 {
+    const EMPTY: Box4 = Box4 {
+        min: Vec4::splat(f32::INFINITY),
+        max: Vec4::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline]
+    fn union(self, other: Box4) -> Box4 {
+        Box4 {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    #[inline]
+    fn grow(self, p: Vec4) -> Box4 {
+        Box4 {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    fn aabb(&self) -> Aabb {
+        Aabb {
+            min: self.min.truncate(),
+            max: self.max.truncate(),
+        }
+    }
+
+    fn diagonal(&self) -> Vec3 {
+        self.aabb().diagonal()
+    }
+
+    fn surface_area(&self) -> f32 {
+        self.aabb().surface_area()
+    }
+}
+
+/// A primitive as the build sees it: its box, and its index in the w lane
+/// of `bounds.min` (as bits). 32 bytes.
+#[derive(Clone, Copy)]
+struct BuildPrim {
+    bounds: Box4,
+}
+
+impl BuildPrim {
+    fn new(bounds: Aabb, index: u32) -> Self {
+        Self {
+            bounds: Box4 {
+                min: bounds.min.extend(f32::from_bits(index)),
+                max: bounds.max.extend(0.0),
+            },
+        }
+    }
+
+    fn index(&self) -> u32 {
+        self.bounds.min.w.to_bits()
+    }
+
+    /// Twice the box's centre (in xyz): binning compares centres, which
+    /// the doubling leaves in the same bins, exactly.
+    #[inline]
+    fn centroid2(&self) -> Vec4 {
+        self.bounds.min + self.bounds.max
+    }
+}
+
+/// The wide tree over the bounds of `count` primitives (`bounds(i)`), its
+/// bounds, and the order of the primitives that its leaves' ranges index
+/// (not yet packets).
+pub(super) fn build_boxes(
+    count: usize,
+    bounds: impl Fn(usize) -> Aabb + Sync,
+) -> (Vec<WideNode>, Aabb, Vec<u32>) {
+    use rayon::prelude::*;
+    // In parallel: on big meshes the first touch of these pages (the
+    // kernel zeroing them) costs as much as the arithmetic.
+    let mut prims: Vec<BuildPrim> = (0..count)
+        .into_par_iter()
+        .map(|i| BuildPrim::new(bounds(i), i as u32))
         .collect();
     if prims.is_empty() {
         return (Vec::new(), Aabb::EMPTY, Vec::new());
@@ -80,7 +154,7 @@ pub(super) fn build_boxes(bounds: &[Aabb]) -> (Vec<WideNode>, Aabb, Vec<u32>) {
     // counts against `ulimit -v` though it is never touched.
     let mut binary = Vec::new();
     build_range(&mut prims, 0, 0, &mut binary);
-    let order = prims.iter().map(|p| p.index).collect();
+    let order = prims.par_iter().map(BuildPrim::index).collect();
     let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
     collapse(&binary, 0, &mut nodes);
     let root = &binary[0];
@@ -95,16 +169,11 @@ pub(super) fn build_boxes(bounds: &[Aabb]) -> (Vec<WideNode>, Aabb, Vec<u32>) {
 /// into packets of four and points the leaf at its first packet.
 pub(super) fn pack_leaves(
     nodes: &mut [WideNode],
-    triangle: impl Fn(usize) -> [Vec3; 3],
-) -> Vec<Triangle4> {
-    // Exactly the packets there will be: a vector that grows by doubling
-    // reserves address space it never uses (which `ulimit -v` counts).
-    let packets_needed: usize = nodes
-        .iter()
-        .flat_map(|n| n.count)
-        .map(|c| (c as usize).div_ceil(4))
-        .sum();
-    let mut packets = Vec::with_capacity(packets_needed);
+    triangle: impl Fn(usize) -> [Vec3; 3] + Sync,
+) -> HugeArray<Triangle4> {
+    // Where each packet's triangles start, and how many it holds; the
+    // leaves point at their first packets.
+    let mut packet_starts: Vec<(u32, u8)> = Vec::new();
     for node in nodes {
         for slot in 0..WIDTH {
             let count = node.count[slot] as usize;
@@ -112,18 +181,22 @@ pub(super) fn pack_leaves(
                 continue;
             }
             let first = node.child[slot] as usize;
-            node.child[slot] = packets.len() as u32;
+            node.child[slot] = packet_starts.len() as u32;
             for start in (first..first + count).step_by(4) {
-                let n = (first + count - start).min(4);
-                let mut tris = [[Vec3::ZERO; 3]; 4];
-                for (k, t) in tris[..n].iter_mut().enumerate() {
-                    *t = triangle(start + k);
-                }
-                packets.push(Triangle4::new(&tris[..n], start as u32));
+                packet_starts.push((start as u32, (first + count - start).min(4) as u8));
             }
         }
     }
-    packets
+    // Filled on every thread, where they will stay: on big meshes the
+    // first touch of the pages costs as much as the copying.
+    HugeArray::filled_in_parallel(packet_starts.len(), |i| {
+        let (start, n) = (packet_starts[i].0 as usize, packet_starts[i].1 as usize);
+        let mut tris = [[Vec3::ZERO; 3]; 4];
+        for (k, t) in tris[..n].iter_mut().enumerate() {
+            *t = triangle(start + k);
+        }
+        Triangle4::new(&tris[..n], start as u32)
+    })
 }
 
 /// Turns the binary subtree at `index` into wide nodes; returns the index
@@ -186,8 +259,7 @@ fn build_range(
     depth: usize,
     nodes: &mut Vec<Node>,
 ) -> usize {
-    let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
-    let centroids = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
+    let (bounds, centroids) = bounds_of(prims);
     let index = nodes.len();
     nodes.push(Node::new(&bounds, first as u32, prims.len() as u16));
     let n = prims.len();
@@ -210,25 +282,46 @@ fn build_range(
     };
 
     let (left, right) = prims.split_at_mut(mid);
-    if n < PARALLEL_MIN {
+    // Big subtrees near the root build on two threads: the left one into
+    // `nodes`, the right one into a list of its own appended after it, in
+    // the order the serial build makes (the same tree either way). Forks
+    // stop a few levels below one per thread: each one copies its right
+    // subtree's nodes once more, into pages touched for the first time.
+    if n < PARALLEL_MIN || depth >= rayon::current_num_threads().ilog2() as usize + 3 {
         build_range(left, first, depth + 1, nodes);
         let second = build_range(right, first + mid, depth + 1, nodes);
         nodes[index].set_interior(second as u32);
         return index;
     }
-    // Big subtrees build on two threads into lists of their own, appended
-    // in the order the serial build makes: the same tree either way.
-    let subtree = |prims: &mut [BuildPrim], first: usize| {
+    let right_subtree = || {
         let mut own = Vec::new();
-        build_range(prims, first, depth + 1, &mut own);
+        build_range(right, first + mid, depth + 1, &mut own);
         own
     };
-    let (l, r) = rayon::join(|| subtree(left, first), || subtree(right, first + mid));
-    append_shifted(nodes, l);
+    let (_, r) = rayon::join(|| build_range(left, first, depth + 1, nodes), right_subtree);
     let second = nodes.len();
     append_shifted(nodes, r);
     nodes[index].set_interior(second as u32);
     index
+}
+
+/// The box around `prims` and the box around their (doubled) centres, in
+/// one pass over them (the build is bound by reading memory), on every
+/// thread where there are many.
+fn bounds_of(prims: &[BuildPrim]) -> (Box4, Box4) {
+    use rayon::prelude::*;
+    let fold = |prims: &[BuildPrim]| {
+        prims.iter().fold((Box4::EMPTY, Box4::EMPTY), |(b, c), p| {
+            (b.union(p.bounds), c.grow(p.centroid2()))
+        })
+    };
+    if prims.len() < 4 * PARALLEL_MIN {
+        return fold(prims);
+    }
+    prims.par_chunks(PARALLEL_MIN).map(fold).reduce(
+        || (Box4::EMPTY, Box4::EMPTY),
+        |a, b| (a.0.union(b.0), a.1.union(b.1)),
+    )
 }
 
 /// Appends a subtree built in a list of its own: its interior nodes' links
@@ -255,25 +348,27 @@ fn largest_axis(v: Vec3) -> usize {
 
 fn median_split(prims: &mut [BuildPrim], axis: usize) -> usize {
     let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    prims.select_nth_unstable_by(mid, |a, b| {
+        a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
+    });
     mid
 }
 
 /// Primitive counts and bounds per bin, for each axis.
 #[derive(Clone, Copy)]
 struct Bins {
-    bounds: [[Aabb; BINS]; 3],
+    bounds: [[Box4; BINS]; 3],
     count: [[usize; BINS]; 3],
 }
 
 impl Bins {
     const EMPTY: Bins = Bins {
-        bounds: [[Aabb::EMPTY; BINS]; 3],
+        bounds: [[Box4::EMPTY; BINS]; 3],
         count: [[0; BINS]; 3],
     };
 
     /// Bins `prims` on all three axes in one pass over them.
-    fn of(prims: &[BuildPrim], binner: &Binner) -> Bins {
+    fn of<'p>(prims: impl Iterator<Item = &'p BuildPrim>, binner: &Binner) -> Bins {
         let mut bins = Bins::EMPTY;
         for p in prims {
             for (axis, b) in binner.bins(p).into_iter().enumerate() {
@@ -295,14 +390,15 @@ impl Bins {
     }
 }
 
-/// Maps centroids to bins on each axis (bin 0 on a flat axis).
+/// Maps centroids (doubled, as `BuildPrim::centroid2`) to bins on each
+/// axis (bin 0 on a flat axis).
 struct Binner {
-    lo: Vec3,
-    scale: Vec3,
+    lo: Vec4,
+    scale: Vec4,
 }
 
 impl Binner {
-    fn new(centroids: &Aabb) -> Self {
+    fn new(centroids: &Box4) -> Self {
         let ext = centroids.diagonal();
         let scale = Vec3::select(
             ext.cmpgt(Vec3::ZERO),
@@ -311,37 +407,42 @@ impl Binner {
         );
         Self {
             lo: centroids.min,
-            scale,
+            scale: scale.extend(0.0),
         }
     }
 
     #[inline]
     fn bins(&self, p: &BuildPrim) -> [usize; 3] {
-        let b = ((p.centroid - self.lo) * self.scale).to_array();
-        b.map(|x| (x as usize).min(BINS - 1))
+        let b = ((p.centroid2() - self.lo) * self.scale).to_array();
+        [b[0], b[1], b[2]].map(|x| (x as usize).min(BINS - 1))
     }
 
     /// The bin along one axis (as `bins` gives it).
     #[inline]
     fn bin(&self, p: &BuildPrim, axis: usize) -> usize {
-        (((p.centroid[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(BINS - 1)
+        (((p.centroid2()[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(BINS - 1)
     }
 }
 
 /// Binned SAH over all three axes. Partitions `prims` and returns the split
 /// point, or None when keeping a leaf is cheaper (or nothing separates).
-fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option<usize> {
+fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option<usize> {
     use rayon::prelude::*;
     let n = prims.len();
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bins on the left)
     let binner = Binner::new(centroids);
     let bins = if n >= 4 * PARALLEL_MIN {
+        // The bins see every k-th primitive, BINNING_SAMPLE of them or
+        // more: the build spends most of its time reading memory, and a
+        // sample that big puts the cheapest plane within a bin of where
+        // all of them would.
+        let stride = (n / BINNING_SAMPLE).max(1);
         prims
-            .par_chunks(PARALLEL_MIN)
-            .map(|chunk| Bins::of(chunk, &binner))
+            .par_chunks(PARALLEL_MIN * stride)
+            .map(|chunk| Bins::of(chunk.iter().step_by(stride), &binner))
             .reduce(|| Bins::EMPTY, Bins::merge)
     } else {
-        Bins::of(prims, &binner)
+        Bins::of(prims.iter(), &binner)
     };
     for axis in 0..3 {
         if centroids.max[axis] <= centroids.min[axis] {
@@ -351,14 +452,14 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Aabb, centroids: &Aabb) -> Option
         // Sweep from the right to get suffix areas, then from the left.
         let mut right_area = [0.0f32; BINS];
         let mut right_count = [0usize; BINS];
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
         for i in (1..BINS).rev() {
             acc = acc.union(bin_bounds[i]);
             cnt += bin_count[i];
             right_area[i] = acc.surface_area();
             right_count[i] = cnt;
         }
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
         for i in 0..BINS - 1 {
             acc = acc.union(bin_bounds[i]);
             cnt += bin_count[i];

@@ -54,12 +54,12 @@ impl Bvh {
     /// Builds over triangles. Returns the hierarchy and the order in which
     /// the caller must store the triangles: hits name them by that order.
     pub fn build(triangles: &[[Vec3; 3]]) -> (Bvh, Vec<u32>) {
-        let bounds: Vec<Aabb> = triangles.iter().map(|t| Aabb::of_points(t)).collect();
-        let (mut nodes, bounds, order) = build_boxes(&bounds);
+        let (mut nodes, bounds, order) =
+            build_boxes(triangles.len(), |i| Aabb::of_points(&triangles[i]));
         let packets = pack_leaves(&mut nodes, |prim| triangles[order[prim] as usize]);
         let bvh = Bvh {
-            nodes: HugeArray::from_vec(nodes),
-            packets: HugeArray::from_vec(packets),
+            nodes: HugeArray::filled_in_parallel(nodes.len(), |i| nodes[i]),
+            packets,
             bounds,
         };
         (bvh, order)
@@ -294,7 +294,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| build_boxes(&bounds))
+                .install(|| build_boxes(bounds.len(), |i| bounds[i]))
         };
         let (a, _, order_a) = build(1);
         let (b, _, order_b) = build(4);

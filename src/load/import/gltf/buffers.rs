@@ -39,14 +39,28 @@ pub(super) fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-pub(super) fn load_buffers(gltf: &gltf::Gltf, base: &Path) -> Result<Vec<Vec<u8>>, String> {
+pub(super) fn load_buffers(gltf: &mut gltf::Gltf, base: &Path) -> Result<Vec<Vec<u8>>, String> {
+    // The binary chunk moves over (a copy would fault in as many pages
+    // again: 280 MB for a 10M-triangle mesh); a second buffer naming it
+    // copies the first.
+    let mut blob = gltf.blob.take();
+    let mut bin_buffer: Option<usize> = None;
     let mut buffers = Vec::new();
     for buffer in gltf.buffers() {
         let i = buffer.index();
         let data = match buffer.source() {
-            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or(format!(
-                "buffer {i} refers to a GLB binary chunk the file does not have"
-            ))?,
+            gltf::buffer::Source::Bin => match (blob.take(), bin_buffer) {
+                (Some(data), _) => {
+                    bin_buffer = Some(buffers.len());
+                    data
+                }
+                (None, Some(first)) => Vec::clone(&buffers[first]),
+                (None, None) => {
+                    return Err(format!(
+                        "buffer {i} refers to a GLB binary chunk the file does not have"
+                    ))
+                }
+            },
             gltf::buffer::Source::Uri(uri) => {
                 read_uri(uri, base).map_err(|e| format!("buffer {i}: {e}"))?
             }

@@ -86,11 +86,12 @@ pub(super) const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads a glTF or GLB file.
 pub fn load(path: &Path, textures: &mut TextureCache) -> Result<Asset, String> {
-    let bytes = crate::input::read(path)?;
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(describe)?;
+    // The file's bytes go once parsed: the binary chunk is a copy of them.
+    let mut gltf =
+        gltf::Gltf::from_slice_without_validation(&crate::input::read(path)?).map_err(describe)?;
     validate(gltf.as_json())?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = load_buffers(&gltf, base)?;
+    let buffers = load_buffers(&mut gltf, base)?;
 
     let mut asset = Asset::default();
     let mut ignored = BTreeSet::new();
