@@ -286,8 +286,10 @@ mod tests {
 
     #[test]
     fn the_parallel_build_makes_the_serial_tree() {
-        // Big enough for parallel subtrees and parallel binning at the top.
-        let tris = random_triangles(100_000, 3);
+        // Big enough for parallel subtrees, parallel binning and a binning
+        // sample at the top (more than 4 · 65,536 primitives), and forks
+        // that stop at different depths on one thread and on four.
+        let tris = random_triangles(300_000, 3);
         let bounds: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
         let build = |threads: usize| {
             rayon::ThreadPoolBuilder::new()
