@@ -14,7 +14,7 @@ use prism::sampler::Sampler;
 use prism::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// Six quads bounding the box [min, max], normals outwards, of `material`.
-fn box_shapes(min: [f32; 3], max: [f32; 3], material: &str) -> String {
+pub(crate) fn box_shapes(min: [f32; 3], max: [f32; 3], material: &str) -> String {
     let [x0, y0, z0] = min;
     let [x1, y1, z1] = max;
     let faces = [

@@ -4,6 +4,7 @@
 //! second time: the IOR stack would fill with copies of one medium).
 
 use crate::common::scene;
+use crate::media::box_shapes;
 use glam::Vec3;
 use prism::geometry::Ray;
 use prism::sampler::Sampler;
@@ -77,18 +78,6 @@ fn flights_end_inside_a_tessellated_sphere() {
 
 #[test]
 fn flights_end_inside_a_box() {
-    let [x0, y0, z0, x1, y1, z1] = [-1.0, -0.5, -1.5, 2.0, 1.0, 0.5];
-    let faces = [
-        [[x0, y0, z0], [x0, y0, z1], [x0, y1, z1], [x0, y1, z0]],
-        [[x1, y0, z0], [x1, y1, z0], [x1, y1, z1], [x1, y0, z1]],
-        [[x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1]],
-        [[x0, y1, z0], [x0, y1, z1], [x1, y1, z1], [x1, y1, z0]],
-        [[x0, y0, z0], [x0, y1, z0], [x1, y1, z0], [x1, y0, z0]],
-        [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],
-    ];
-    let shapes: String = faces
-        .iter()
-        .map(|f| format!("[[shape]]\ntype = \"quad\"\nmaterial = \"fog\"\nvertices = {f:?}\n"))
-        .collect();
+    let shapes = box_shapes([-1.0, -0.5, -1.5], [2.0, 1.0, 0.5], "fog");
     ends_stay_inside(&shapes, Vec3::new(0.1, 0.05, -0.2));
 }
