@@ -30,7 +30,6 @@ thread_local! {
     static PEAK: Cell<u64> = const { Cell::new(0) };
 }
 
-/// Sets the budget for the rest of the process (`--max-memory`).
 /// Lets the process's threads share two of glibc's malloc arenas. Each
 /// thread that meets a busy arena otherwise makes one more, and each
 /// reserves 64 MiB of address space that `ulimit -v` counts, though a
@@ -46,6 +45,7 @@ pub fn share_allocator_arenas() {
     }
 }
 
+/// Sets the budget for the rest of the process (`--max-memory`).
 pub fn set_limit(bytes: u64) {
     LIMIT.store(bytes.max(1), Ordering::Relaxed);
 }

@@ -144,17 +144,4 @@ mod tests {
             }
         }
     }
-
-    #[test]
-    fn fills_in_parallel() {
-        let n = HUGE_PAGE / 4 + 1;
-        let array = HugeArray::filled_in_parallel(n, |i| (i as u32).wrapping_mul(2_654_435_761));
-        assert_eq!(array.len(), n);
-        assert!(array
-            .iter()
-            .enumerate()
-            .all(|(i, &v)| v == (i as u32).wrapping_mul(2_654_435_761)));
-        assert_eq!(array.as_ptr() as usize % HUGE_PAGE, 0);
-        assert!(HugeArray::<u64>::filled_in_parallel(0, |_| 1).is_empty());
-    }
 }
