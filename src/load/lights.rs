@@ -206,25 +206,30 @@ impl Loader {
             }
             Ok(p)
         };
+        // With `lumens` or `lux` (`target`, the key `name`) instead of
+        // `scale`: the spectrum's shape scaled to that photometric value,
+        // then by `per` (1 / the solid angle, for a flux), and checked as
+        // any emission.
+        let photometric = |s: Spectrum, target: Option<f32>, name: &str, per: f32| {
+            let Some(value) = target else {
+                return Ok(s);
+            };
+            if spec.common.scale.is_some() {
+                return Err(self.error(format!("`{key}`: give `scale` or `{name}`, not both")));
+            }
+            let key = format!("{key}.{name}");
+            let s = self.photometric(s, value, &key)?.scaled(per);
+            self.checked_emission(s, &key)
+        };
         // Radiant intensity from `intensity`, or from `power` spread over
         // the solid angle the light fills.
-        // With `lumens`, the spectrum's shape scaled to that flux.
         let intensity = |intensity, power, solid_angle: f32, lumens: Option<f32>| {
             let i = match (intensity, power) {
                 (Some(i), None) => spectrum(i, "intensity")?,
                 (None, Some(p)) => spectrum(p, "power")?.scaled(1.0 / solid_angle),
                 _ => return Err(self.error(format!("`{key}`: give either `intensity` or `power`"))),
             };
-            match lumens {
-                None => Ok(i),
-                Some(_) if spec.common.scale.is_some() => {
-                    Err(self.error(format!("`{key}`: give `scale` or `lumens`, not both")))
-                }
-                Some(lm) => {
-                    let i = self.photometric(i, lm, &format!("{key}.lumens"))?;
-                    Ok(i.scaled(1.0 / solid_angle))
-                }
-            }
+            photometric(i, lumens, "lumens", 1.0 / solid_angle)
         };
         match &spec.kind {
             LightKind::Directional(d) => {
@@ -232,14 +237,7 @@ impl Loader {
                 if direction.length_squared() == 0.0 {
                     return Err(self.error(format!("`{key}.direction` must not be zero")));
                 }
-                let e = spectrum(&d.irradiance, "irradiance")?;
-                let e = match d.lux {
-                    None => e,
-                    Some(_) if spec.common.scale.is_some() => {
-                        return Err(self.error(format!("`{key}`: give `scale` or `lux`, not both")))
-                    }
-                    Some(lux) => self.photometric(e, lux, &format!("{key}.lux"))?,
-                };
+                let e = photometric(spectrum(&d.irradiance, "irradiance")?, d.lux, "lux", 1.0)?;
                 Ok(Light::Directional(DirectionalLight::new(
                     direction.normalize(),
                     e,
