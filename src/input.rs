@@ -36,8 +36,23 @@ pub fn record(files: &[(PathBuf, u64)]) {
     });
 }
 
+/// Inputs bigger than this hash as blocks of it, on every thread.
+const HASH_BLOCK: usize = 64 << 20;
+
 /// A 64-bit FNV-1a over 8-byte words (then the tail): quick on big meshes.
+/// Bigger than a block, the hash is that of the blocks' hashes, made in
+/// parallel (a 1.1 GB OBJ took 0.35 s on one thread).
 pub fn content_hash(bytes: &[u8]) -> u64 {
+    use rayon::prelude::*;
+    if bytes.len() <= HASH_BLOCK {
+        return fnv_words(bytes);
+    }
+    let blocks: Vec<u64> = bytes.par_chunks(HASH_BLOCK).map(fnv_words).collect();
+    let joined: Vec<u8> = blocks.iter().flat_map(|h| h.to_le_bytes()).collect();
+    fnv_words(&joined) ^ bytes.len() as u64
+}
+
+fn fnv_words(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut words = bytes.chunks_exact(8);
     for w in &mut words {
@@ -97,6 +112,49 @@ pub fn read(path: &Path) -> Result<Vec<u8>, String> {
         }
     });
     Ok(bytes)
+}
+
+/// Files at least this big are mapped rather than read by [`read_mapped`].
+const MAP_AT_LEAST: u64 = 64 << 20;
+
+/// A file's bytes, mapped (big files) or read.
+pub enum FileBytes {
+    Mapped(memmap2::Mmap),
+    Read(Vec<u8>),
+}
+
+impl std::ops::Deref for FileBytes {
+    type Target = [u8];
+
+    fn deref(&self) -> &[u8] {
+        match self {
+            FileBytes::Mapped(map) => map,
+            FileBytes::Read(bytes) => bytes,
+        }
+    }
+}
+
+/// `read`, except that big files are mapped: their pages are the page
+/// cache's, neither copied nor zeroed first (on a 1.1 GB OBJ, 0.8 s of a
+/// 2-thread load), and faulted in by the threads that parse them.
+pub fn read_mapped(path: &Path) -> Result<FileBytes, String> {
+    let size = regular_file_size(path)?;
+    if size < MAP_AT_LEAST {
+        return read(path).map(FileBytes::Read);
+    }
+    crate::memory::check("reading the file", size)?;
+    let file = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    // SAFETY: the map is read-only and lives as long as the bytes are
+    // used. A file shortened by another program while it is mapped would
+    // fault on the lost pages (as it would for any program that maps its
+    // inputs, such as ripgrep); prism never writes its inputs.
+    let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| format!("cannot read: {e}"))?;
+    READ.with(|r| {
+        if let Some(files) = r.borrow_mut().as_mut() {
+            files.push((path.to_path_buf(), content_hash(&map)));
+        }
+    });
+    Ok(FileBytes::Mapped(map))
 }
 
 /// `read` as UTF-8 text.

@@ -51,12 +51,13 @@ fn roughness_from_phong(ns: f32) -> f32 {
 /// Reads an OBJ file and its materials. `smooth`: use the file's vertex
 /// normals where every vertex of a piece has one.
 pub fn load(path: &Path, smooth: bool, textures: &mut TextureCache) -> Result<Asset, String> {
-    let bytes = crate::input::read(path)?;
+    let bytes = crate::input::read_mapped(path)?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     // The geometry is read in parallel (obj_text); the material libraries
     // by tobj.
-    // Parsing holds the text, the vertices and up to 24 bytes a corner
-    // (a corner can be 6 bytes of text: `1/1/1 `): four times the file.
+    // Parsing holds the text, the vertices, 12 bytes a corner (a corner
+    // can be 6 bytes of text: `1/1/1 `) and the pieces' own copies of
+    // them while it gathers: up to four times the file.
     crate::memory::check(
         &format!("reading the OBJ ({} bytes)", bytes.len()),
         4 * bytes.len() as u64,

@@ -15,7 +15,9 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 mod pieces;
+mod words;
 use pieces::{Plan, Sources};
+use words::{corner, number, Words};
 
 /// The faces of one object or group with one material.
 #[derive(Debug, Default)]
@@ -52,14 +54,18 @@ const MIN_CHUNK: usize = 1 << 20;
 /// No corner attribute (texture coordinate or normal).
 const NONE: u32 = u32::MAX;
 
+/// An index no vertex list can reach (beyond what u32 holds, or before
+/// the first): an error, or for normals a warning, once resolved.
+const OUT_OF_RANGE: u32 = u32::MAX - 1;
+
 /// A corner normal index beyond the file's `vn` lines (the piece's normals
 /// are computed instead).
 const BROKEN: u32 = u32::MAX - 2;
 
 /// Parses OBJ text. Errors name the line.
 pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
-    let chunks = split_at_lines(bytes, rayon::current_num_threads() * 4);
-    let mut read: Vec<Chunk> = chunks.par_iter().map(|c| Chunk::read(c)).collect();
+    let texts = split_at_lines(bytes, rayon::current_num_threads() * 4);
+    let mut read: Vec<Chunk> = texts.par_iter().map(|c| Chunk::read(c)).collect();
     // Counts before each chunk: lines, and v, vt, vn.
     let mut before = Vec::with_capacity(read.len());
     let mut totals = [0usize; 4];
@@ -79,7 +85,8 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
     }
     read.par_iter_mut()
         .zip(&before)
-        .try_for_each(|(c, b)| c.resolve(*b, totals))?;
+        .zip(&texts)
+        .try_for_each(|((c, b), text)| c.resolve(text, *b, totals))?;
 
     let positions: Vec<Vec3> = read
         .iter()
@@ -94,8 +101,27 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
         return Err(format!("vertex {} is not finite", i + 1));
     }
 
-    // Pieces: face ranges (chunk, faces) between the statements that split.
-    let mut geometry = ObjGeometry::default();
+    let mut geometry = ObjGeometry {
+        broken_normal: read.iter().find_map(|c| c.broken_normal.clone()),
+        ..ObjGeometry::default()
+    };
+    let plans = plan_pieces(&read, &mut geometry.material_libraries);
+    let sources = Sources {
+        chunks: &read,
+        positions: &positions,
+        uvs: &uvs,
+        normals: &normals,
+    };
+    geometry.pieces = plans.into_par_iter().map(|p| sources.piece(p)).collect();
+    // The chunks' corners are hundreds of megabytes on big files: returned
+    // to the system on a thread of their own while the caller goes on.
+    rayon::spawn(move || drop(read));
+    Ok(geometry)
+}
+
+/// The pieces as face ranges (chunk, faces) between the statements that
+/// split them; the material libraries named go to `libraries`.
+fn plan_pieces(read: &[Chunk], libraries: &mut Vec<String>) -> Vec<Plan> {
     let mut plans: Vec<Plan> = Vec::new();
     let mut current = Plan {
         name: "unnamed_object".into(),
@@ -127,7 +153,7 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
                         plans.push(std::mem::replace(&mut current, next));
                     }
                 }
-                Statement::Library(name) => geometry.material_libraries.push(name.clone()),
+                Statement::Library(name) => libraries.push(name.clone()),
             }
         }
         if chunk.arities.len() > start {
@@ -136,23 +162,7 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
     }
     plans.push(current);
     plans.retain(|p| !p.ranges.is_empty());
-    let sources = Sources {
-        chunks: &read,
-        positions: &positions,
-        uvs: &uvs,
-        normals: &normals,
-    };
-    geometry.pieces = plans.into_par_iter().map(|p| sources.piece(p)).collect();
-    geometry.broken_normal =
-        read.iter()
-            .find_map(|c| c.broken_normal)
-            .map(|(line, index, total)| {
-                format!(
-                    "line {line}: normal index {index} is out of range (the file has {total}); \
-                 the normals of the faces that name missing ones are computed"
-                )
-            });
-    Ok(geometry)
+    plans
 }
 
 /// `bytes` cut into about `parts` pieces, each ending at a line break.
@@ -162,7 +172,7 @@ fn split_at_lines(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
     let mut start = 0;
     while start < bytes.len() {
         let mut end = (start + size).min(bytes.len());
-        if let Some(nl) = bytes[end..].iter().position(|&b| b == b'\n') {
+        if let Some(nl) = memchr::memchr(b'\n', &bytes[end..]) {
             end += nl + 1;
         } else {
             end = bytes.len();
@@ -173,6 +183,17 @@ fn split_at_lines(bytes: &[u8], parts: usize) -> Vec<&[u8]> {
     chunks
 }
 
+/// The lines of a chunk's text (the last one may be empty).
+fn lines(text: &[u8]) -> impl Iterator<Item = &[u8]> {
+    memchr::memchr_iter(b'\n', text)
+        .chain(std::iter::once(text.len()))
+        .scan(0, move |start, end| {
+            let line = &text[*start..end];
+            *start = end + 1;
+            Some(line.strip_suffix(b"\r").unwrap_or(line))
+        })
+}
+
 /// A statement that splits faces into pieces, or names a library.
 #[derive(Clone, Debug)]
 enum Statement {
@@ -181,38 +202,37 @@ enum Statement {
     Library(String),
 }
 
-/// One chunk's contents as read.
+/// One chunk's contents as read: 12 bytes a corner, the least a big file's
+/// faces can be held in (they are most of its memory).
 #[derive(Default)]
 struct Chunk {
     lines: usize,
     positions: Vec<Vec3>,
     uvs: Vec<Vec2>,
     normals: Vec<Vec3>,
-    /// Per corner: v, vt, vn as written (1-based, negative relative, 0
-    /// none), until `resolve` makes them 0-based indices (NONE for none).
-    raw: Vec<[i64; 3]>,
-    /// Per face: the chunk's v, vt, vn counts where it was read, and its
-    /// line in the chunk.
-    seen: Vec<([u32; 3], usize)>,
-    /// Resolved corners.
+    /// Per corner: v, vt, vn as 0-based indices into the file's lists (NONE
+    /// for none, OUT_OF_RANGE), except those `relative` lists, which hold
+    /// an index into the chunk's own (as i32 bits; negative reaches back
+    /// into earlier chunks) until `resolve` adds the counts before it.
     corners: Vec<[u32; 3]>,
+    /// (corner, attribute) written as negative indices.
+    relative: Vec<(u32, u8)>,
     arities: Vec<u32>,
     /// Where each face's corners start in `corners` (one more entry than
-    /// faces): pieces find their corners without summing arities.
+    /// faces), made by `resolve`.
     face_starts: Vec<u32>,
     /// Before which face each statement came.
     statements: Vec<(usize, Statement)>,
     /// The first error: line within the chunk (1-based) and message.
     error: Option<(usize, String)>,
-    /// The first corner whose normal index is out of range: its line in
-    /// the file, the index as written and the file's count.
-    broken_normal: Option<(usize, i64, usize)>,
+    /// The warning for the first corner whose normal index is out of range.
+    broken_normal: Option<String>,
 }
 
 impl Chunk {
     fn read(text: &[u8]) -> Chunk {
         let mut c = Chunk::default();
-        for line in text.split(|&b| b == b'\n') {
+        for line in lines(text) {
             c.lines += 1;
             if let Err(message) = c.line(line) {
                 c.error = Some((c.lines, message));
@@ -227,10 +247,7 @@ impl Chunk {
     }
 
     fn line(&mut self, line: &[u8]) -> Result<(), String> {
-        let line = line.strip_suffix(b"\r").unwrap_or(line);
-        let mut words = line
-            .split(|b| b.is_ascii_whitespace())
-            .filter(|w| !w.is_empty());
+        let mut words = Words::new(line);
         let Some(keyword) = words.next() else {
             return Ok(());
         };
@@ -238,9 +255,8 @@ impl Chunk {
             b"v" => {
                 let [x, y, z] = floats(&mut words, "v")?;
                 // `v x y z w` is homogeneous; `v x y z r g b` has a colour.
-                let rest: Vec<&[u8]> = words.collect();
-                let w = match rest.len() {
-                    1 => number(rest[0], "v")?,
+                let w = match (words.next(), words.next()) {
+                    (Some(w), None) => number(w, "v")?,
                     _ => 1.0,
                 };
                 if w == 0.0 {
@@ -257,25 +273,7 @@ impl Chunk {
                 let [x, y, z] = floats(&mut words, "vn")?;
                 self.normals.push(Vec3::new(x, y, z));
             }
-            b"f" => {
-                let seen = [
-                    self.positions.len() as u32,
-                    self.uvs.len() as u32,
-                    self.normals.len() as u32,
-                ];
-                let mut arity = 0;
-                for word in words {
-                    self.raw.push(corner(word)?);
-                    arity += 1;
-                }
-                if arity < 3 {
-                    // Two corners make no triangle.
-                    self.raw.truncate(self.raw.len() - arity as usize);
-                } else {
-                    self.arities.push(arity);
-                    self.seen.push((seen, self.lines));
-                }
-            }
+            b"f" => self.face(words)?,
             b"o" | b"g" => {
                 let name = rest_of(line, keyword);
                 let name = if name.is_empty() {
@@ -305,50 +303,118 @@ impl Chunk {
         Ok(())
     }
 
-    /// Turns the raw corners into 0-based indices, given the counts of
-    /// lines and v, vt, vn before the chunk and in the whole file.
-    fn resolve(&mut self, before: [usize; 4], totals: [usize; 4]) -> Result<(), String> {
-        let mut corners = Vec::with_capacity(self.raw.len());
-        let mut raw = self.raw.iter();
-        self.face_starts = Vec::with_capacity(self.arities.len() + 1);
-        for (&arity, &(seen, line)) in self.arities.iter().zip(&self.seen) {
-            self.face_starts.push(corners.len() as u32);
-            for corner in raw.by_ref().take(arity as usize) {
-                let mut out = [NONE; 3];
-                for a in 0..3 {
-                    let total = totals[a + 1];
-                    let index = match corner[a] {
-                        0 => continue,
-                        i if i > 0 => i - 1,
-                        i => (before[a + 1] + seen[a] as usize) as i64 + i,
-                    };
-                    if (index < 0 || index as usize >= total) && a == 2 {
-                        // Other loaders accept such files: warn, and
-                        // compute the piece's normals.
-                        self.broken_normal
-                            .get_or_insert((before[0] + line, corner[a], total));
-                        out[a] = BROKEN;
-                        continue;
+    /// An `f` line's corners; faces of fewer than three are skipped.
+    fn face(&mut self, words: Words) -> Result<(), String> {
+        let seen = [self.positions.len(), self.uvs.len(), self.normals.len()];
+        let (first, relative) = (self.corners.len(), self.relative.len());
+        for word in words {
+            let written = corner(word)?;
+            let mut out = [NONE; 3];
+            for a in 0..3 {
+                out[a] = match written[a] {
+                    0 => NONE,
+                    i if i > 0 => {
+                        u32::try_from(i - 1).map_or(OUT_OF_RANGE, |i| i.min(OUT_OF_RANGE))
                     }
-                    if index < 0 || index as usize >= total {
-                        let what = ["vertex", "texture coordinate", "normal"][a];
-                        return Err(format!(
-                            "line {}: {what} index {} is out of range (the file has {total})",
-                            before[0] + line,
-                            corner[a]
-                        ));
-                    }
-                    out[a] = index as u32;
-                }
-                corners.push(out);
+                    i => match i32::try_from(seen[a] as i64 + i) {
+                        Ok(local) => {
+                            self.relative.push((self.corners.len() as u32, a as u8));
+                            local as u32
+                        }
+                        Err(_) => OUT_OF_RANGE,
+                    },
+                };
             }
+            self.corners.push(out);
         }
-        self.face_starts.push(corners.len() as u32);
-        self.corners = corners;
-        self.raw = Vec::new();
-        self.seen = Vec::new();
+        let arity = self.corners.len() - first;
+        if arity < 3 {
+            // Two corners make no triangle.
+            self.corners.truncate(first);
+            self.relative.truncate(relative);
+        } else {
+            self.arities.push(arity as u32);
+        }
         Ok(())
     }
+
+    /// Makes every corner index the file's, given the counts of lines and
+    /// v, vt, vn before the chunk and in the whole file, and checks them.
+    /// Lines are found again in the text, only for a message.
+    fn resolve(
+        &mut self,
+        text: &[u8],
+        before: [usize; 4],
+        totals: [usize; 4],
+    ) -> Result<(), String> {
+        for &(c, a) in &self.relative {
+            let slot = &mut self.corners[c as usize][a as usize];
+            let index = *slot as i32 as i64 + before[a as usize + 1] as i64;
+            *slot = u32::try_from(index).map_or(OUT_OF_RANGE, |i| i.min(OUT_OF_RANGE));
+        }
+        self.relative = Vec::new();
+        let mut bad: Option<(usize, usize)> = None;
+        for (c, corner) in self.corners.iter_mut().enumerate() {
+            for a in 0..3 {
+                if corner[a] != NONE && corner[a] as usize >= totals[a + 1] {
+                    if a == 2 {
+                        // Other loaders accept such files: warn, and
+                        // compute the piece's normals.
+                        corner[a] = BROKEN;
+                        if self.broken_normal.is_none() {
+                            let (line, written) = written(text, c, a);
+                            self.broken_normal = Some(format!(
+                                "line {}: normal index {written} is out of range (the file has {}); \
+                                 the normals of the faces that name missing ones are computed",
+                                before[0] + line,
+                                totals[3]
+                            ));
+                        }
+                    } else {
+                        bad = bad.or(Some((c, a)));
+                    }
+                }
+            }
+        }
+        if let Some((c, a)) = bad {
+            let (line, written) = written(text, c, a);
+            let what = ["vertex", "texture coordinate", "normal"][a];
+            return Err(format!(
+                "line {}: {what} index {written} is out of range (the file has {})",
+                before[0] + line,
+                totals[a + 1]
+            ));
+        }
+        let mut start = 0;
+        self.face_starts = Vec::with_capacity(self.arities.len() + 1);
+        for &arity in &self.arities {
+            self.face_starts.push(start);
+            start += arity;
+        }
+        self.face_starts.push(start);
+        Ok(())
+    }
+}
+
+/// The line (within a chunk's text) of its corner `c`, and that corner's
+/// attribute `a` as written: read again, only for a message.
+fn written(text: &[u8], c: usize, a: usize) -> (usize, i64) {
+    let mut before = 0;
+    for (number, line) in lines(text).enumerate() {
+        let mut words = Words::new(line);
+        if words.next() != Some(b"f") {
+            continue;
+        }
+        let corners: Vec<[i64; 3]> = words.filter_map(|w| corner(w).ok()).collect();
+        if corners.len() < 3 {
+            continue;
+        }
+        if c < before + corners.len() {
+            return (number + 1, corners[c - before][a]);
+        }
+        before += corners.len();
+    }
+    (0, 0)
 }
 
 /// Three numbers of a `v` or `vn` line.
@@ -363,60 +429,6 @@ fn floats<'a>(words: &mut impl Iterator<Item = &'a [u8]>, what: &str) -> Result<
         )?;
     }
     Ok(out)
-}
-
-fn number(word: &[u8], what: &str) -> Result<f32, String> {
-    std::str::from_utf8(word)
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .ok_or_else(|| {
-            format!(
-                "`{what}`: `{}` is not a number",
-                String::from_utf8_lossy(&word[..word.len().min(40)])
-            )
-        })
-}
-
-/// A face corner `v`, `v/vt`, `v//vn` or `v/vt/vn` as written (0: none).
-fn corner(word: &[u8]) -> Result<[i64; 3], String> {
-    let mut out = [0i64; 3];
-    for (k, part) in word.split(|&b| b == b'/').enumerate() {
-        if k > 2 || (k == 0 && part.is_empty()) {
-            return Err(bad_corner(word));
-        }
-        if part.is_empty() {
-            continue;
-        }
-        out[k] = integer(part).ok_or_else(|| bad_corner(word))?;
-    }
-    Ok(out)
-}
-
-fn bad_corner(word: &[u8]) -> String {
-    format!(
-        "`f`: `{}` is not a face corner (v, v/vt, v//vn or v/vt/vn)",
-        String::from_utf8_lossy(&word[..word.len().min(40)])
-    )
-}
-
-/// A nonzero integer, optionally negative, of at most 18 digits.
-fn integer(digits: &[u8]) -> Option<i64> {
-    let (negative, digits) = match digits.split_first() {
-        Some((b'-', rest)) => (true, rest),
-        Some((b'+', rest)) => (false, rest),
-        _ => (false, digits),
-    };
-    if digits.is_empty() || digits.len() > 18 {
-        return None;
-    }
-    let mut value = 0i64;
-    for &d in digits {
-        if !d.is_ascii_digit() {
-            return None;
-        }
-        value = value * 10 + (d - b'0') as i64;
-    }
-    (value != 0).then_some(if negative { -value } else { value })
 }
 
 /// What follows the keyword on its line, trimmed (names may hold spaces).
@@ -528,5 +540,51 @@ mod tests {
         let e = parse(b"v 0 0 0\n\nf 1/ 1 1/2/3/4\n").unwrap_err();
         assert!(e.starts_with("line 3: `f`"), "{e}");
         assert!(parse(b"v 0 0 0 0\n").unwrap_err().contains("w = 0"));
+        // Relative and huge indices, found again as written.
+        let e = parse(b"v 0 0 0\nv 1 0 0\nf -1 -2 -3\n").unwrap_err();
+        assert!(
+            e.starts_with("line 3: vertex index -3 is out of range"),
+            "{e}"
+        );
+        let e = parse(b"v 0 0 0\nvt 0 0\nf 1/1 1/1 1/99999999999\n").unwrap_err();
+        assert!(
+            e.starts_with("line 3: texture coordinate index 99999999999 is out of range"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn errors_and_warnings_in_later_chunks_name_the_files_line() {
+        let mut text = String::new();
+        for _ in 0..3 * MIN_CHUNK / 16 {
+            text += "v 0.5 0.25 1\n";
+        }
+        text += "vn 0 0 1\nf 1//1 2//1 3//1\nf -1//1 -2//1 -3//-5\nf 1//1 2//1 3//4\n";
+        let lines_before = 3 * MIN_CHUNK / 16 + 1;
+        let g = parse(text.as_bytes()).unwrap();
+        let warning = g.broken_normal.unwrap();
+        assert!(
+            warning.starts_with(&format!(
+                "line {}: normal index -5 is out of range (the file has 1)",
+                lines_before + 2
+            )),
+            "{warning}"
+        );
+        text += "f 1 2 0x\n";
+        let e = parse(text.as_bytes()).unwrap_err();
+        assert!(
+            e.starts_with(&format!("line {}: `f`", lines_before + 4)),
+            "{e}"
+        );
+        text.truncate(text.len() - 9);
+        text += "f 1 2 -99999999\n";
+        let e = parse(text.as_bytes()).unwrap_err();
+        assert!(
+            e.starts_with(&format!(
+                "line {}: vertex index -99999999 is out of range",
+                lines_before + 4
+            )),
+            "{e}"
+        );
     }
 }
