@@ -44,8 +44,12 @@ impl Node {
     }
 }
 
-/// Bins per axis in the SAH sweep.
+/// Bins per axis in the SAH sweep, at most.
 const BINS: usize = 16;
+/// Bins per axis at least (nodes of few primitives have fewer bins: most
+/// nodes are small, and there the sweeps over the bins cost more than
+/// binning the primitives).
+const MIN_BINS: usize = 4;
 /// Leaves never hold more than this many primitives unless they cannot be split.
 const MAX_LEAF: usize = 8;
 /// Cost of visiting a node relative to testing one packet of triangles.
@@ -153,7 +157,8 @@ pub(super) fn build_boxes(
     // tree of SAH leaves has a fraction of that): reserved address space
     // counts against `ulimit -v` though it is never touched.
     let mut binary = Vec::new();
-    build_range(&mut prims, 0, 0, &mut binary);
+    let boxes = bounds_of(&prims);
+    build_range(&mut prims, boxes, 0, 0, &mut binary);
     let order = prims.par_iter().map(BuildPrim::index).collect();
     let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
     collapse(&binary, 0, &mut nodes);
@@ -253,13 +258,16 @@ fn collapse(binary: &[Node], index: usize, wide: &mut Vec<WideNode>) -> u32 {
     me as u32
 }
 
+/// Builds the binary subtree over `prims` (whose box and centres' box are
+/// `boxes`) into `nodes`; returns its root's index.
 fn build_range(
     prims: &mut [BuildPrim],
+    boxes: (Box4, Box4),
     first: usize,
     depth: usize,
     nodes: &mut Vec<Node>,
 ) -> usize {
-    let (bounds, centroids) = bounds_of(prims);
+    let (bounds, centroids) = boxes;
     let index = nodes.len();
     nodes.push(Node::new(&bounds, first as u32, prims.len() as u16));
     let n = prims.len();
@@ -271,15 +279,20 @@ fn build_range(
         return index;
     }
 
-    let mid = if depth < SAH_MAX_DEPTH && extent[axis] > 0.0 {
+    let split = if depth < SAH_MAX_DEPTH && extent[axis] > 0.0 {
         match sah_split(prims, &bounds, &centroids) {
-            Some(mid) => mid,
+            Some(split) => split,
             None if n <= MAX_LEAF => return index,
             None => median_split(prims, axis),
         }
     } else {
         median_split(prims, axis)
     };
+    let Split {
+        mid,
+        left: left_boxes,
+        right: right_boxes,
+    } = split;
 
     let (left, right) = prims.split_at_mut(mid);
     // Big subtrees near the root build on two threads: the left one into
@@ -288,21 +301,32 @@ fn build_range(
     // stop a few levels below one per thread: each one copies its right
     // subtree's nodes once more, into pages touched for the first time.
     if n < PARALLEL_MIN || depth >= rayon::current_num_threads().ilog2() as usize + 3 {
-        build_range(left, first, depth + 1, nodes);
-        let second = build_range(right, first + mid, depth + 1, nodes);
+        build_range(left, left_boxes, first, depth + 1, nodes);
+        let second = build_range(right, right_boxes, first + mid, depth + 1, nodes);
         nodes[index].set_interior(second as u32);
         return index;
     }
     let right_subtree = || {
         let mut own = Vec::new();
-        build_range(right, first + mid, depth + 1, &mut own);
+        build_range(right, right_boxes, first + mid, depth + 1, &mut own);
         own
     };
-    let (_, r) = rayon::join(|| build_range(left, first, depth + 1, nodes), right_subtree);
+    let (_, r) = rayon::join(
+        || build_range(left, left_boxes, first, depth + 1, nodes),
+        right_subtree,
+    );
     let second = nodes.len();
     append_shifted(nodes, r);
     nodes[index].set_interior(second as u32);
     index
+}
+
+/// Where a node's primitives were divided, and each side's box and box
+/// of (doubled) centres.
+struct Split {
+    mid: usize,
+    left: (Box4, Box4),
+    right: (Box4, Box4),
 }
 
 /// The box around `prims` and the box around their (doubled) centres, in
@@ -346,12 +370,16 @@ fn largest_axis(v: Vec3) -> usize {
     }
 }
 
-fn median_split(prims: &mut [BuildPrim], axis: usize) -> usize {
+fn median_split(prims: &mut [BuildPrim], axis: usize) -> Split {
     let mid = prims.len() / 2;
     prims.select_nth_unstable_by(mid, |a, b| {
         a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
     });
-    mid
+    Split {
+        mid,
+        left: bounds_of(&prims[..mid]),
+        right: bounds_of(&prims[mid..]),
+    }
 }
 
 /// Primitive counts and bounds per bin, for each axis.
@@ -395,42 +423,49 @@ impl Bins {
 struct Binner {
     lo: Vec4,
     scale: Vec4,
+    /// Bins per axis (up to BINS).
+    count: usize,
 }
 
 impl Binner {
-    fn new(centroids: &Box4) -> Self {
+    /// For `n` primitives whose doubled centres lie in `centroids`: a bin
+    /// for every four of them, MIN_BINS to BINS.
+    fn new(centroids: &Box4, n: usize) -> Self {
+        let count = (n / 4).clamp(MIN_BINS, BINS);
         let ext = centroids.diagonal();
         let scale = Vec3::select(
             ext.cmpgt(Vec3::ZERO),
-            Vec3::splat(BINS as f32) / ext,
+            Vec3::splat(count as f32) / ext,
             Vec3::ZERO,
         );
         Self {
             lo: centroids.min,
             scale: scale.extend(0.0),
+            count,
         }
     }
 
     #[inline]
     fn bins(&self, p: &BuildPrim) -> [usize; 3] {
         let b = ((p.centroid2() - self.lo) * self.scale).to_array();
-        [b[0], b[1], b[2]].map(|x| (x as usize).min(BINS - 1))
+        [b[0], b[1], b[2]].map(|x| (x as usize).min(self.count - 1))
     }
 
     /// The bin along one axis (as `bins` gives it).
     #[inline]
     fn bin(&self, p: &BuildPrim, axis: usize) -> usize {
-        (((p.centroid2()[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(BINS - 1)
+        (((p.centroid2()[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(self.count - 1)
     }
 }
 
 /// Binned SAH over all three axes. Partitions `prims` and returns the split
 /// point, or None when keeping a leaf is cheaper (or nothing separates).
-fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option<usize> {
+fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option<Split> {
     use rayon::prelude::*;
     let n = prims.len();
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bins on the left)
-    let binner = Binner::new(centroids);
+    let binner = Binner::new(centroids, n);
+    let bins_used = binner.count;
     let bins = if n >= 4 * PARALLEL_MIN {
         // The bins see every k-th primitive, BINNING_SAMPLE of them or
         // more: the build spends most of its time reading memory, and a
@@ -453,14 +488,14 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option
         let mut right_area = [0.0f32; BINS];
         let mut right_count = [0usize; BINS];
         let (mut acc, mut cnt) = (Box4::EMPTY, 0);
-        for i in (1..BINS).rev() {
+        for i in (1..bins_used).rev() {
             acc = acc.union(bin_bounds[i]);
             cnt += bin_count[i];
             right_area[i] = acc.surface_area();
             right_count[i] = cnt;
         }
         let (mut acc, mut cnt) = (Box4::EMPTY, 0);
-        for i in 0..BINS - 1 {
+        for i in 0..bins_used - 1 {
             acc = acc.union(bin_bounds[i]);
             cnt += bin_count[i];
             if cnt == 0 || right_count[i + 1] == 0 {
@@ -479,14 +514,42 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option
     if n <= MAX_LEAF && split_cost >= packets(n) {
         return None;
     }
-    let mut mid = 0;
-    for i in 0..n {
-        if binner.bin(&prims[i], axis) < left_bins {
-            prims.swap(i, mid);
-            mid += 1;
+    let split = partition(prims, |p| binner.bin(p, axis) < left_bins);
+    (split.mid > 0 && split.mid < n).then_some(split)
+}
+
+/// Moves the primitives `on_left` accepts before the others, growing each
+/// side's boxes as it goes: the children need no pass of their own to
+/// find them (the build spends most of its time reading primitives).
+fn partition(prims: &mut [BuildPrim], on_left: impl Fn(&BuildPrim) -> bool) -> Split {
+    let grow = |(b, c): (Box4, Box4), p: &BuildPrim| (b.union(p.bounds), c.grow(p.centroid2()));
+    let empty = (Box4::EMPTY, Box4::EMPTY);
+    let (mut left, mut right) = (empty, empty);
+    // Hoare's scheme: from both ends, each misplaced pair swapped once.
+    let (mut l, mut r) = (0, prims.len());
+    loop {
+        while l < r && on_left(&prims[l]) {
+            left = grow(left, &prims[l]);
+            l += 1;
         }
+        while l < r && !on_left(&prims[r - 1]) {
+            right = grow(right, &prims[r - 1]);
+            r -= 1;
+        }
+        if l >= r {
+            break;
+        }
+        prims.swap(l, r - 1);
+        left = grow(left, &prims[l]);
+        right = grow(right, &prims[r - 1]);
+        l += 1;
+        r -= 1;
     }
-    (mid > 0 && mid < n).then_some(mid)
+    Split {
+        mid: l,
+        left,
+        right,
+    }
 }
 
 /// The packets of four that `n` triangles fill: what testing a leaf costs.
