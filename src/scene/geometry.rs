@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::{Emission, ShapeInstance, SphereInstance};
+use super::{Emission, Mesh, ShapeInstance, SphereInstance};
 use crate::geometry::sphere::SphereSet;
 use crate::geometry::{triangle, Aabb, Bvh};
 use crate::light::{AreaLight, Emitter, Light, SceneSphere, SphereLight};
@@ -67,17 +67,31 @@ pub struct SceneGeometry {
     pub(super) degenerate_triangles: usize,
 }
 
+/// A mesh's triangles as the scene numbers them (before the BVH orders
+/// them): from `first` on, those of its triangles that are not degenerate.
+struct MeshTriangles {
+    first: usize,
+    /// The triangles kept, where some are degenerate (None: all of them).
+    kept: Option<Vec<u32>>,
+    /// Where the mesh's vertices start in the attribute arrays.
+    base: u32,
+    /// Which attributes the mesh has (HAS_NORMALS …).
+    flags: u8,
+    material: u32,
+    /// The mesh's emitter, an index into the scene's list of them.
+    emitter: Option<u32>,
+}
+
 impl SceneGeometry {
     /// Drops degenerate triangles, builds the BVH, stores triangles in its
-    /// order and collects the area and sphere lights.
+    /// order and collects the area and sphere lights. The triangles and
+    /// their shading data are written once, in the BVH's order, straight
+    /// from the meshes: on big meshes writing to fresh pages is much of the
+    /// work (a 10M-triangle mesh's are 600 MB).
     pub fn build(shapes: Vec<ShapeInstance>, spheres: Vec<SphereInstance>) -> SceneGeometry {
         // Reserved exactly: vectors that grow by doubling reserve address
         // space they never use, which `ulimit -v` counts.
-        let triangle_count: usize = shapes.iter().map(|s| s.mesh.indices.len()).sum();
         let vertex_count: usize = shapes.iter().map(|s| s.mesh.positions.len()).sum();
-        let mut triangles = Vec::with_capacity(triangle_count);
-        let mut shading = Vec::with_capacity(triangle_count);
-        let mut emitters: Vec<Option<u32>> = Vec::with_capacity(triangle_count);
         let mut light_emitters = Vec::new();
         let mut light_sources = Vec::new();
         let mut attributes = VertexAttributes {
@@ -85,9 +99,10 @@ impl SceneGeometry {
             uvs: Vec::with_capacity(vertex_count),
             tangents: Vec::with_capacity(vertex_count),
         };
-        let mut degenerate = 0;
+        let (mut numbering, mut meshes) = (Vec::new(), Vec::new());
+        let (mut count, mut degenerate) = (0, 0);
         for shape in shapes {
-            let emission = shape.emission.map(|e| {
+            let emitter = shape.emission.map(|e| {
                 let emitter = Emitter {
                     spectrum: e.spectrum,
                     texture: e.texture,
@@ -95,57 +110,54 @@ impl SceneGeometry {
                 light_emitters.push((Arc::new(emitter), e.two_sided, shape.emission_of));
                 light_emitters.len() as u32 - 1
             });
-            let mesh = shape.mesh;
-            // Attribute arrays grow together so one base index serves all.
-            let base = attributes.normals.len() as u32;
-            let n = mesh.positions.len();
-            let mut flags = 0;
-            match &mesh.normals {
-                Some(v) => {
-                    flags |= HAS_NORMALS;
-                    attributes.normals.extend_from_slice(v);
-                }
-                None => attributes.normals.resize(base as usize + n, Vec3::ZERO),
-            }
-            match &mesh.uvs {
-                Some(v) => {
-                    flags |= HAS_UVS;
-                    attributes.uvs.extend_from_slice(v);
-                }
-                None => attributes.uvs.resize(base as usize + n, Vec2::ZERO),
-            }
-            match &mesh.tangents {
-                Some(v) => {
-                    flags |= HAS_TANGENTS;
-                    attributes.tangents.extend_from_slice(v);
-                }
-                None => attributes.tangents.resize(base as usize + n, Vec4::ZERO),
-            }
-            for idx in &mesh.indices {
-                let p = idx.map(|i| mesh.positions[i as usize]);
-                if !(triangle::area(&p) > 0.0) {
-                    degenerate += 1;
-                    continue;
-                }
-                triangles.push(p);
-                shading.push(TriangleShading {
-                    vertices: idx.map(|i| base + i),
-                    attributes: flags,
-                    material: shape.material,
-                    light: NO_LIGHT,
-                });
-                emitters.push(emission);
-            }
+            let (base, flags) = attributes.append(&shape.mesh);
+            let kept = kept_triangles(&shape.mesh);
+            let kept_count = kept.as_ref().map_or(shape.mesh.indices.len(), Vec::len);
+            degenerate += shape.mesh.indices.len() - kept_count;
+            numbering.push(MeshTriangles {
+                first: count,
+                kept,
+                base,
+                flags,
+                material: shape.material,
+                emitter,
+            });
+            count += kept_count;
+            meshes.push(shape.mesh);
         }
-        let (bvh, order) = Bvh::build(&triangles);
-        // In parallel, as the BVH's build: faulting in these pages is much
-        // of the work on big meshes.
-        let triangles: Vec<[Vec3; 3]> = order.par_iter().map(|&i| triangles[i as usize]).collect();
-        let mut shading: Vec<TriangleShading> =
-            order.par_iter().map(|&i| shading[i as usize]).collect();
+        // The mesh and vertex indices of the scene's triangle g.
+        let locate = |g: usize| -> (usize, [u32; 3]) {
+            let k = numbering.partition_point(|m| m.first <= g) - 1;
+            let local = g - numbering[k].first;
+            let t = numbering[k]
+                .kept
+                .as_ref()
+                .map_or(local, |kept| kept[local] as usize);
+            (k, meshes[k].indices[t])
+        };
+        let triangle = |g: usize| {
+            let (k, idx) = locate(g);
+            idx.map(|i| meshes[k].positions[i as usize])
+        };
+        let (bvh, order) = Bvh::build_from(count, triangle);
+        let triangles: Vec<[Vec3; 3]> = order.par_iter().map(|&g| triangle(g as usize)).collect();
+        let mut shading: Vec<TriangleShading> = order
+            .par_iter()
+            .map(|&g| {
+                let (k, idx) = locate(g as usize);
+                let m = &numbering[k];
+                TriangleShading {
+                    vertices: idx.map(|i| m.base + i),
+                    attributes: m.flags,
+                    material: m.material,
+                    light: NO_LIGHT,
+                }
+            })
+            .collect();
         let mut lights = Vec::new();
-        for (prim, &original) in order.iter().enumerate() {
-            if let Some(e) = emitters[original as usize] {
+        let emitting = numbering.iter().any(|m| m.emitter.is_some());
+        for (prim, &g) in order.iter().enumerate().filter(|_| emitting) {
+            if let Some(e) = numbering[locate(g as usize).0].emitter {
                 shading[prim].light = lights.len() as u32;
                 let info = &shading[prim];
                 let uvs = (info.attributes & HAS_UVS != 0)
@@ -160,6 +172,7 @@ impl SceneGeometry {
                 )));
             }
         }
+        drop(meshes);
         let (sphere_set, sphere_shading) = sphere_lights(&spheres, &mut lights);
         light_sources.extend(
             spheres
@@ -183,6 +196,54 @@ impl SceneGeometry {
         }
     }
 }
+impl VertexAttributes {
+    /// Appends a mesh's vertex attributes (zeros where it has none, so that
+    /// one base index serves all three arrays); returns that base and the
+    /// attributes it has.
+    fn append(&mut self, mesh: &Mesh) -> (u32, u8) {
+        let base = self.normals.len() as u32;
+        let n = base as usize + mesh.positions.len();
+        let mut flags = 0;
+        match &mesh.normals {
+            Some(v) => {
+                flags |= HAS_NORMALS;
+                self.normals.extend_from_slice(v);
+            }
+            None => self.normals.resize(n, Vec3::ZERO),
+        }
+        match &mesh.uvs {
+            Some(v) => {
+                flags |= HAS_UVS;
+                self.uvs.extend_from_slice(v);
+            }
+            None => self.uvs.resize(n, Vec2::ZERO),
+        }
+        match &mesh.tangents {
+            Some(v) => {
+                flags |= HAS_TANGENTS;
+                self.tangents.extend_from_slice(v);
+            }
+            None => self.tangents.resize(n, Vec4::ZERO),
+        }
+        (base, flags)
+    }
+}
+
+/// The triangles of `mesh` with an area, where some have none (None: all
+/// have one).
+fn kept_triangles(mesh: &Mesh) -> Option<Vec<u32>> {
+    let has_area = |t: &[u32; 3]| triangle::area(&t.map(|i| mesh.positions[i as usize])) > 0.0;
+    if mesh.indices.par_iter().all(has_area) {
+        return None;
+    }
+    Some(
+        (0..mesh.indices.len() as u32)
+            .into_par_iter()
+            .filter(|&t| has_area(&mesh.indices[t as usize]))
+            .collect(),
+    )
+}
+
 /// The sphere around `bounds` (none for an empty scene).
 fn bounding_sphere(bounds: Aabb, empty: bool) -> SceneSphere {
     if empty {

@@ -54,9 +54,17 @@ impl Bvh {
     /// Builds over triangles. Returns the hierarchy and the order in which
     /// the caller must store the triangles: hits name them by that order.
     pub fn build(triangles: &[[Vec3; 3]]) -> (Bvh, Vec<u32>) {
-        let (mut nodes, bounds, order) =
-            build_boxes(triangles.len(), |i| Aabb::of_points(&triangles[i]));
-        let packets = pack_leaves(&mut nodes, |prim| triangles[order[prim] as usize]);
+        Self::build_from(triangles.len(), |i| triangles[i])
+    }
+
+    /// `build` over `count` triangles that `triangle(i)` gives (wherever
+    /// they are kept).
+    pub fn build_from(
+        count: usize,
+        triangle: impl Fn(usize) -> [Vec3; 3] + Sync,
+    ) -> (Bvh, Vec<u32>) {
+        let (mut nodes, bounds, order) = build_boxes(count, |i| Aabb::of_points(&triangle(i)));
+        let packets = pack_leaves(&mut nodes, |prim| triangle(order[prim] as usize));
         let bvh = Bvh {
             nodes: HugeArray::filled_in_parallel(nodes.len(), |i| nodes[i]),
             packets,
