@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 mod pieces;
 mod words;
-use pieces::{Plan, Sources};
+use pieces::{Joined, Plan, Sources};
 use words::{corner, number, Words};
 
 /// The faces of one object or group with one material.
@@ -88,16 +88,11 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
         .zip(&texts)
         .try_for_each(|((c, b), text)| c.resolve(text, *b, totals))?;
 
-    let positions: Vec<Vec3> = read
-        .iter()
-        .flat_map(|c| c.positions.iter().copied())
-        .collect();
-    let uvs: Vec<Vec2> = read.iter().flat_map(|c| c.uvs.iter().copied()).collect();
-    let normals: Vec<Vec3> = read
-        .iter()
-        .flat_map(|c| c.normals.iter().copied())
-        .collect();
-    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+    let bad = read.par_iter().zip(&before).find_map_first(|(c, b)| {
+        let i = c.positions.iter().position(|p| !p.is_finite())?;
+        Some(b[1] + i)
+    });
+    if let Some(i) = bad {
         return Err(format!("vertex {} is not finite", i + 1));
     }
 
@@ -108,9 +103,9 @@ pub fn parse(bytes: &[u8]) -> Result<ObjGeometry, String> {
     let plans = plan_pieces(&read, &mut geometry.material_libraries);
     let sources = Sources {
         chunks: &read,
-        positions: &positions,
-        uvs: &uvs,
-        normals: &normals,
+        positions: Joined::new(read.iter().map(|c| c.positions.as_slice())),
+        uvs: Joined::new(read.iter().map(|c| c.uvs.as_slice())),
+        normals: Joined::new(read.iter().map(|c| c.normals.as_slice())),
     };
     geometry.pieces = plans.into_par_iter().map(|p| sources.piece(p)).collect();
     // The chunks' corners are hundreds of megabytes on big files: returned
@@ -265,8 +260,8 @@ impl Chunk {
                 self.positions.push(Vec3::new(x, y, z) / w);
             }
             b"vt" => {
-                let u = number(words.next().ok_or("`vt` needs u")?, "vt")?;
-                let v = words.next().map_or(Ok(0.0), |w| number(w, "vt"))?;
+                let u = words.next_number("vt").ok_or("`vt` needs u")??;
+                let v = words.next_number("vt").unwrap_or(Ok(0.0))?;
                 self.uvs.push(Vec2::new(u, v));
             }
             b"vn" => {
@@ -304,11 +299,11 @@ impl Chunk {
     }
 
     /// An `f` line's corners; faces of fewer than three are skipped.
-    fn face(&mut self, words: Words) -> Result<(), String> {
+    fn face(&mut self, mut words: Words) -> Result<(), String> {
         let seen = [self.positions.len(), self.uvs.len(), self.normals.len()];
         let (first, relative) = (self.corners.len(), self.relative.len());
-        for word in words {
-            let written = corner(word)?;
+        while let Some(written) = words.next_corner() {
+            let written = written?;
             let mut out = [NONE; 3];
             for a in 0..3 {
                 out[a] = match written[a] {
@@ -418,15 +413,12 @@ fn written(text: &[u8], c: usize, a: usize) -> (usize, i64) {
 }
 
 /// Three numbers of a `v` or `vn` line.
-fn floats<'a>(words: &mut impl Iterator<Item = &'a [u8]>, what: &str) -> Result<[f32; 3], String> {
+fn floats(words: &mut Words, what: &str) -> Result<[f32; 3], String> {
     let mut out = [0.0; 3];
     for v in &mut out {
-        *v = number(
-            words
-                .next()
-                .ok_or_else(|| format!("`{what}` needs three numbers"))?,
-            what,
-        )?;
+        *v = words
+            .next_number(what)
+            .ok_or_else(|| format!("`{what}` needs three numbers"))??;
     }
     Ok(out)
 }

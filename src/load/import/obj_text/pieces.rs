@@ -19,12 +19,43 @@ pub(super) struct Plan {
     pub(super) ranges: Vec<(usize, usize, usize)>,
 }
 
-/// The whole file's vertex arrays and chunks, for gathering pieces.
+/// The whole file's vertex arrays (as the chunks hold them) and chunks,
+/// for gathering pieces.
 pub(super) struct Sources<'a> {
     pub(super) chunks: &'a [Chunk],
-    pub(super) positions: &'a [Vec3],
-    pub(super) uvs: &'a [Vec2],
-    pub(super) normals: &'a [Vec3],
+    pub(super) positions: Joined<'a, Vec3>,
+    pub(super) uvs: Joined<'a, Vec2>,
+    pub(super) normals: Joined<'a, Vec3>,
+}
+
+/// Slices read as one, without copying them into one (on a big file,
+/// hundreds of megabytes of fresh pages).
+pub(super) struct Joined<'a, T> {
+    parts: Vec<&'a [T]>,
+    /// Where each part starts in the whole.
+    starts: Vec<usize>,
+}
+
+impl<'a, T: Copy> Joined<'a, T> {
+    pub(super) fn new(parts: impl Iterator<Item = &'a [T]>) -> Self {
+        let parts: Vec<&[T]> = parts.collect();
+        let starts = parts
+            .iter()
+            .scan(0, |at, p| {
+                let start = *at;
+                *at += p.len();
+                Some(start)
+            })
+            .collect();
+        Self { parts, starts }
+    }
+
+    /// The item at `index` of the whole (which must have one).
+    fn get(&self, index: u32) -> T {
+        let index = index as usize;
+        let part = self.starts.partition_point(|&s| s <= index) - 1;
+        self.parts[part][index - self.starts[part]]
+    }
 }
 
 /// Corners per parallel task while gathering.
@@ -71,18 +102,13 @@ impl Sources<'_> {
         ObjPiece {
             name: plan.name,
             material: plan.material,
-            positions: keys
-                .par_iter()
-                .map(|k| self.positions[k[0] as usize])
-                .collect(),
+            positions: keys.par_iter().map(|k| self.positions.get(k[0])).collect(),
             uvs: seen
                 .with_uv
-                .then(|| keys.par_iter().map(|k| self.uvs[k[1] as usize]).collect()),
-            normals: seen.with_normal.then(|| {
-                keys.par_iter()
-                    .map(|k| self.normals[k[2] as usize])
-                    .collect()
-            }),
+                .then(|| keys.par_iter().map(|k| self.uvs.get(k[1])).collect()),
+            normals: seen
+                .with_normal
+                .then(|| keys.par_iter().map(|k| self.normals.get(k[2])).collect()),
             corners,
             arities: corner_ranges
                 .iter()

@@ -12,6 +12,40 @@ impl<'a> Words<'a> {
     pub(super) fn new(line: &'a [u8]) -> Self {
         Self { rest: line }
     }
+
+    fn skip_whitespace(&mut self) {
+        let start = self
+            .rest
+            .iter()
+            .position(|b| !b.is_ascii_whitespace())
+            .unwrap_or(self.rest.len());
+        self.rest = &self.rest[start..];
+    }
+
+    /// The next word read as a number (None: no words left), in one pass
+    /// over it where it is a short decimal.
+    #[inline]
+    pub(super) fn next_number(&mut self, what: &str) -> Option<Result<f32, String>> {
+        self.skip_whitespace();
+        if let Some((value, len)) = short_decimal(self.rest) {
+            if self.rest.get(len).is_none_or(u8::is_ascii_whitespace) {
+                self.rest = &self.rest[len..];
+                return Some(Ok(value));
+            }
+        }
+        self.next().map(|word| number(word, what))
+    }
+
+    /// The next word read as a face corner (None: no words left).
+    #[inline]
+    pub(super) fn next_corner(&mut self) -> Option<Result<[i64; 3], String>> {
+        self.skip_whitespace();
+        if let Some((corner, len)) = corner_at(self.rest) {
+            self.rest = &self.rest[len..];
+            return Some(Ok(corner));
+        }
+        self.next().map(|word| Err(bad_corner(word)))
+    }
 }
 
 impl<'a> Iterator for Words<'a> {
@@ -38,8 +72,10 @@ const POW10: [f64; 23] = [
 
 /// A number of a `v`, `vt` or `vn` line, correctly rounded to f32.
 pub(super) fn number(word: &[u8], what: &str) -> Result<f32, String> {
-    if let Some(x) = short_decimal(word) {
-        return Ok(x);
+    if let Some((x, len)) = short_decimal(word) {
+        if len == word.len() {
+            return Ok(x);
+        }
     }
     std::str::from_utf8(word)
         .ok()
@@ -52,23 +88,20 @@ pub(super) fn number(word: &[u8], what: &str) -> Result<f32, String> {
         })
 }
 
-/// `[±]digits[.digits]` with at most 15 significant digits and 22
-/// decimals, as f32, or None for anything else (exponents, more digits):
-/// the digits as an integer m < 2⁵³ and 10^k are both exact in f64, so
-/// m / 10^k is the f64 nearest the value. Rounding that to f32 is exact
-/// unless it lies on a halfway point between two f32s (the value may lie
-/// on either side): then None, and the general parser decides.
+/// `[±]digits[.digits]` at the start of `text`, with at most 15
+/// significant digits and 22 decimals, as f32, and its length; None for
+/// anything else (the general parser decides). The digits as an integer
+/// m < 2⁵³ and 10^k are both exact in f64, so m / 10^k is the f64 nearest
+/// the value. Rounding that to f32 is exact unless it lies on a halfway
+/// point between two f32s (the value may lie on either side): then None.
 #[inline]
-fn short_decimal(word: &[u8]) -> Option<f32> {
-    let (negative, digits) = match word.split_first()? {
-        (b'-', rest) => (true, rest),
-        (b'+', rest) => (false, rest),
-        _ => (false, word),
-    };
+fn short_decimal(text: &[u8]) -> Option<(f32, usize)> {
+    let negative = text.first() == Some(&b'-');
+    let mut i = usize::from(negative || text.first() == Some(&b'+'));
     let mut mantissa: u64 = 0;
     let mut count = 0; // digits read, leading zeros included
-    let mut decimals: Option<usize> = None;
-    for (i, &b) in digits.iter().enumerate() {
+    let mut point: Option<usize> = None;
+    while let Some(&b) = text.get(i) {
         match b {
             b'0'..=b'9' => {
                 mantissa = mantissa * 10 + u64::from(b - b'0');
@@ -77,14 +110,15 @@ fn short_decimal(word: &[u8]) -> Option<f32> {
                     return None;
                 }
             }
-            b'.' if decimals.is_none() => decimals = Some(i),
-            _ => return None,
+            b'.' if point.is_none() => point = Some(i),
+            _ => break,
         }
+        i += 1;
     }
     if count == 0 {
         return None;
     }
-    let k = decimals.map_or(0, |at| digits.len() - at - 1);
+    let k = point.map_or(0, |at| i - at - 1);
     let value = mantissa as f64 / *POW10.get(k)?;
     // The low 29 bits of an f64's mantissa are what rounding to f32 drops:
     // exactly half of its last place is a tie the f64 cannot settle.
@@ -92,42 +126,52 @@ fn short_decimal(word: &[u8]) -> Option<f32> {
         return None;
     }
     let value = value as f32;
-    Some(if negative { -value } else { value })
+    Some((if negative { -value } else { value }, i))
 }
 
-/// A face corner `v`, `v/vt`, `v//vn` or `v/vt/vn` as written (0: none),
-/// in one pass over its bytes (a big file has tens of millions): each
-/// index as `integer` reads it.
-#[inline]
+/// A face corner `v`, `v/vt`, `v//vn` or `v/vt/vn` as written (0: none).
 pub(super) fn corner(word: &[u8]) -> Result<[i64; 3], String> {
+    match corner_at(word) {
+        Some((corner, len)) if len == word.len() => Ok(corner),
+        _ => Err(bad_corner(word)),
+    }
+}
+
+/// The face corner at the start of `text` (ending at whitespace or the
+/// end) and its length, in one pass over its bytes (a big file has tens of
+/// millions): each index nonzero, of 1 to 18 digits, with an optional
+/// sign. None where it is not one.
+#[inline]
+fn corner_at(text: &[u8]) -> Option<([i64; 3], usize)> {
     let mut out = [0i64; 3];
     let mut i = 0;
     for (k, slot) in out.iter_mut().enumerate() {
         let start = i;
-        let negative = word.get(i) == Some(&b'-');
-        if negative || word.get(i) == Some(&b'+') {
+        let negative = text.get(i) == Some(&b'-');
+        if negative || text.get(i) == Some(&b'+') {
             i += 1;
         }
         let digits = i;
         let mut value = 0i64;
-        while let Some(&d) = word.get(i).filter(|d| d.is_ascii_digit()) {
+        while let Some(&d) = text.get(i).filter(|d| d.is_ascii_digit()) {
             value = value.wrapping_mul(10).wrapping_add(i64::from(d - b'0'));
             i += 1;
         }
         match i - digits {
             // An empty v, or a sign alone.
-            0 if k == 0 || i > start => return Err(bad_corner(word)),
+            0 if k == 0 || i > start => return None,
             0 => {}
             1..=18 if value != 0 => *slot = if negative { -value } else { value },
-            _ => return Err(bad_corner(word)),
+            _ => return None,
         }
-        match word.get(i) {
-            None => return Ok(out),
-            Some(b'/') => i += 1,
-            Some(_) => return Err(bad_corner(word)),
+        match text.get(i) {
+            None => return Some((out, i)),
+            Some(b) if b.is_ascii_whitespace() => return Some((out, i)),
+            Some(b'/') if k < 2 => i += 1,
+            Some(_) => return None,
         }
     }
-    Err(bad_corner(word))
+    None
 }
 
 fn bad_corner(word: &[u8]) -> String {
@@ -202,8 +246,22 @@ mod tests {
                 got.to_bits() == expected.to_bits() || (got.is_nan() && expected.is_nan()),
                 "{w}: {got} against {expected}"
             );
-            short += usize::from(short_decimal(w.as_bytes()).is_some());
+            short += usize::from(short_decimal(w.as_bytes()).is_some_and(|s| s.1 == w.len()));
         }
+        // Read from a line as the parser does, the same.
+        let line = words.join(" \t");
+        let mut cursor = Words::new(line.as_bytes());
+        for w in &words {
+            let expected: f32 = w.parse().unwrap();
+            let got = cursor.next_number("v").unwrap().unwrap();
+            assert!(got.to_bits() == expected.to_bits() || (got.is_nan() && expected.is_nan()));
+        }
+        assert!(cursor.next_number("v").is_none());
+        let e = Words::new(b" 1.5x 2")
+            .next_number("v")
+            .unwrap()
+            .unwrap_err();
+        assert!(e.contains("`1.5x` is not a number"), "{e}");
         // The short path took nearly all of them (not the exponents).
         assert!(short > 199_000, "{short}");
         for bad in ["", "-", ".", "1.2.3", "1,5", "x"] {
@@ -218,6 +276,13 @@ mod tests {
         assert_eq!(corner(b"3//7").unwrap(), [3, 0, 7]);
         assert_eq!(corner(b"-1/-1/-1").unwrap(), [-1, -1, -1]);
         assert_eq!(corner(b"+3/2/").unwrap(), [3, 2, 0]);
+        let mut line = Words::new(b"1/2/3\t-4//5 6 7/x");
+        assert_eq!(line.next_corner().unwrap().unwrap(), [1, 2, 3]);
+        assert_eq!(line.next_corner().unwrap().unwrap(), [-4, 0, 5]);
+        assert_eq!(line.next_corner().unwrap().unwrap(), [6, 0, 0]);
+        let e = line.next_corner().unwrap().unwrap_err();
+        assert!(e.contains("`7/x` is not a face corner"), "{e}");
+        assert!(line.next_corner().is_none());
         assert_eq!(corner(b"3//").unwrap(), [3, 0, 0]);
         assert_eq!(
             corner(b"123456789012345678").unwrap()[0],
