@@ -89,17 +89,10 @@ impl SceneGeometry {
     /// from the meshes: on big meshes writing to fresh pages is much of the
     /// work (a 10M-triangle mesh's are 600 MB).
     pub fn build(shapes: Vec<ShapeInstance>, spheres: Vec<SphereInstance>) -> SceneGeometry {
-        // Reserved exactly: vectors that grow by doubling reserve address
-        // space they never use, which `ulimit -v` counts.
-        let vertex_count: usize = shapes.iter().map(|s| s.mesh.positions.len()).sum();
         let mut light_emitters = Vec::new();
         let mut light_sources = Vec::new();
-        let mut attributes = VertexAttributes {
-            normals: Vec::with_capacity(vertex_count),
-            uvs: Vec::with_capacity(vertex_count),
-            tangents: Vec::with_capacity(vertex_count),
-        };
-        let (mut numbering, mut meshes) = (Vec::new(), Vec::new());
+        let mut meshes: Vec<Mesh> = Vec::with_capacity(shapes.len());
+        let mut numbering = Vec::with_capacity(shapes.len());
         let (mut count, mut degenerate) = (0, 0);
         for shape in shapes {
             let emitter = shape.emission.map(|e| {
@@ -110,20 +103,23 @@ impl SceneGeometry {
                 light_emitters.push((Arc::new(emitter), e.two_sided, shape.emission_of));
                 light_emitters.len() as u32 - 1
             });
-            let (base, flags) = attributes.append(&shape.mesh);
             let kept = kept_triangles(&shape.mesh);
             let kept_count = kept.as_ref().map_or(shape.mesh.indices.len(), Vec::len);
             degenerate += shape.mesh.indices.len() - kept_count;
             numbering.push(MeshTriangles {
                 first: count,
                 kept,
-                base,
-                flags,
+                base: 0,
+                flags: 0,
                 material: shape.material,
                 emitter,
             });
             count += kept_count;
             meshes.push(shape.mesh);
+        }
+        let (attributes, starts) = VertexAttributes::gather(&mut meshes);
+        for (m, (base, flags)) in numbering.iter_mut().zip(starts) {
+            (m.base, m.flags) = (base, flags);
         }
         // The mesh and vertex indices of the scene's triangle g.
         let locate = |g: usize| -> (usize, [u32; 3]) {
@@ -197,36 +193,72 @@ impl SceneGeometry {
     }
 }
 impl VertexAttributes {
-    /// Appends a mesh's vertex attributes (zeros where it has none, so that
-    /// one base index serves all three arrays); returns that base and the
-    /// attributes it has.
-    fn append(&mut self, mesh: &Mesh) -> (u32, u8) {
-        let base = self.normals.len() as u32;
-        let n = base as usize + mesh.positions.len();
-        let mut flags = 0;
-        match &mesh.normals {
-            Some(v) => {
+    /// The meshes' vertex attributes, concatenated, and where each mesh's
+    /// start and which it has. An attribute that no mesh has stays empty;
+    /// meshes without one that others have get zeros (one base index
+    /// serves all three arrays). A mesh that holds every vertex gives its
+    /// arrays up instead of being copied.
+    fn gather(meshes: &mut [Mesh]) -> (Self, Vec<(u32, u8)>) {
+        let total: usize = meshes.iter().map(|m| m.positions.len()).sum();
+        let any = |has: fn(&Mesh) -> bool| meshes.iter().any(has);
+        let wanted = [
+            any(|m| m.normals.is_some()),
+            any(|m| m.uvs.is_some()),
+            any(|m| m.tangents.is_some()),
+        ];
+        // Reserved exactly: vectors that grow by doubling reserve address
+        // space they never use, which `ulimit -v` counts.
+        let reserve = |wanted: bool| if wanted { total } else { 0 };
+        let mut all = VertexAttributes {
+            normals: Vec::with_capacity(reserve(wanted[0])),
+            uvs: Vec::with_capacity(reserve(wanted[1])),
+            tangents: Vec::with_capacity(reserve(wanted[2])),
+        };
+        let mut starts = Vec::with_capacity(meshes.len());
+        let mut base = 0;
+        for mesh in meshes {
+            let n = mesh.positions.len();
+            let sole = n == total;
+            let (end, mut flags) = (base + n, 0);
+            if append(&mut all.normals, mesh.normals.take(), wanted[0], sole, end) {
                 flags |= HAS_NORMALS;
-                self.normals.extend_from_slice(v);
             }
-            None => self.normals.resize(n, Vec3::ZERO),
-        }
-        match &mesh.uvs {
-            Some(v) => {
+            if append(&mut all.uvs, mesh.uvs.take(), wanted[1], sole, end) {
                 flags |= HAS_UVS;
-                self.uvs.extend_from_slice(v);
             }
-            None => self.uvs.resize(n, Vec2::ZERO),
-        }
-        match &mesh.tangents {
-            Some(v) => {
+            if append(
+                &mut all.tangents,
+                mesh.tangents.take(),
+                wanted[2],
+                sole,
+                end,
+            ) {
                 flags |= HAS_TANGENTS;
-                self.tangents.extend_from_slice(v);
             }
-            None => self.tangents.resize(n, Vec4::ZERO),
+            starts.push((base as u32, flags));
+            base += n;
         }
-        (base, flags)
+        (all, starts)
     }
+}
+
+/// Appends one mesh's attribute (`own`) to `all`, or zeros up to `end`
+/// where it has none but others do; returns whether it has it.
+fn append<T: Copy + Default>(
+    all: &mut Vec<T>,
+    own: Option<Vec<T>>,
+    wanted: bool,
+    sole: bool,
+    end: usize,
+) -> bool {
+    let has = own.is_some();
+    match own {
+        Some(own) if sole => *all = own,
+        Some(own) => all.extend_from_slice(&own),
+        None if wanted => all.resize(end, T::default()),
+        None => {}
+    }
+    has
 }
 
 /// The triangles of `mesh` with an area, where some have none (None: all
@@ -325,4 +357,39 @@ fn sphere_lights(
         })
         .collect();
     (set, shading)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(x: f32) -> Mesh {
+        Mesh::quad([0.0, 1.0, 2.0, 3.0].map(|y| Vec3::new(x, y, 0.0)))
+    }
+
+    #[test]
+    fn attributes_line_up_with_one_base_and_none_are_stored_for_nothing() {
+        let mut with_normals = quad(0.0);
+        with_normals.normals = Some(vec![Vec3::Z; 4]);
+        let mut with_uvs = quad(2.0);
+        with_uvs.uvs = Some((0..4).map(|i| Vec2::splat(i as f32)).collect());
+        let mut meshes = vec![with_normals, quad(1.0), with_uvs];
+        let (all, starts) = VertexAttributes::gather(&mut meshes);
+        assert_eq!(starts, [(0, HAS_NORMALS), (4, 0), (8, HAS_UVS)]);
+        assert_eq!(all.normals[..4], [Vec3::Z; 4]);
+        assert_eq!(all.normals[4..], [Vec3::ZERO; 8]);
+        assert_eq!(all.uvs[..8], [Vec2::ZERO; 8]);
+        assert_eq!(all.uvs[8 + 3], Vec2::splat(3.0));
+        // No mesh has tangents: none are stored.
+        assert!(all.tangents.is_empty());
+
+        // A mesh with every vertex gives its arrays up.
+        let mut sole = quad(0.0);
+        sole.uvs = Some(vec![Vec2::ONE; 4]);
+        let held = sole.uvs.as_ref().unwrap().as_ptr();
+        let (all, starts) = VertexAttributes::gather(&mut [sole]);
+        assert_eq!(starts, [(0, HAS_UVS)]);
+        assert_eq!(all.uvs.as_ptr(), held);
+        assert!(all.normals.is_empty() && all.tangents.is_empty());
+    }
 }
