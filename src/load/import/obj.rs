@@ -189,58 +189,17 @@ fn piece(
             .filter(|n| smooth && n.iter().all(|n| n.is_finite())),
         ..Default::default()
     };
-    if p.arities.iter().all(|&a| a == 3) {
-        // Triangles only (what big files hold): the corners are the index
-        // list already, taken as they are (`cast_vec` refuses a list whose
-        // length or capacity is not a multiple of three).
-        match bytemuck::allocation::try_cast_vec::<u32, [u32; 3]>(p.corners) {
-            Ok(indices) => mesh.indices = indices,
-            Err((_, corners)) => {
-                mesh.indices = corners
-                    .chunks_exact(3)
-                    .map(|c| [c[0], c[1], c[2]])
-                    .collect()
-            }
-        }
-        return finish(mesh, p.broken_normals && smooth, material, p.name);
-    }
-    let mut start = 0;
-    mesh.indices.reserve(p.arities.len());
-    for &arity in &p.arities {
-        let face = &p.corners[start..start + arity as usize];
-        start += arity as usize;
-        if arity == 3 {
-            mesh.indices.push([face[0], face[1], face[2]]);
-            continue;
-        }
-        let points: Vec<Vec3> = face.iter().map(|&i| mesh.positions[i as usize]).collect();
-        mesh.indices.extend(
-            polygon::triangulate(&points)
-                .into_iter()
-                .map(|t| t.map(|k| face[k])),
-        );
-    }
-    finish(mesh, p.broken_normals && smooth, material, p.name)
-}
-
-/// The piece of a mesh (None without triangles), its normals computed
-/// where the file's are `broken`.
-fn finish(
-    mut mesh: Mesh,
-    broken: bool,
-    material: Option<usize>,
-    name: String,
-) -> Result<Option<Piece>, String> {
+    mesh.indices = polygon::triangles_of_faces(p.corners, &p.arities, &mesh.positions);
     if mesh.indices.is_empty() {
         return Ok(None);
     }
-    if broken {
+    if p.broken_normals && smooth {
         mesh.normals = Some(super::vertex_normals(&mesh));
     }
     Ok(Some(Piece {
         mesh,
         material,
-        name,
+        name: p.name,
     }))
 }
 

@@ -4,6 +4,38 @@
 
 use glam::{Vec2, Vec3};
 
+/// The triangles of faces given as their corners (indices into
+/// `positions`), face after face, `arities[f]` corners each: triangles as
+/// they are, larger polygons by `triangulate`. A list of triangles only
+/// (what big files hold) is taken as it is, not copied.
+pub fn triangles_of_faces(corners: Vec<u32>, arities: &[u32], positions: &[Vec3]) -> Vec<[u32; 3]> {
+    if arities.iter().all(|&a| a == 3) {
+        // `try_cast_vec` refuses a list whose length or capacity is not a
+        // multiple of three; it is then copied.
+        return bytemuck::allocation::try_cast_vec::<u32, [u32; 3]>(corners).unwrap_or_else(
+            |(_, corners)| {
+                corners
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect()
+            },
+        );
+    }
+    let mut triangles = Vec::with_capacity(arities.len());
+    let mut start = 0;
+    for &arity in arities {
+        let face = &corners[start..start + arity as usize];
+        start += arity as usize;
+        if arity == 3 {
+            triangles.push([face[0], face[1], face[2]]);
+            continue;
+        }
+        let points: Vec<Vec3> = face.iter().map(|&i| positions[i as usize]).collect();
+        triangles.extend(triangulate(&points).into_iter().map(|t| t.map(|k| face[k])));
+    }
+    triangles
+}
+
 /// Polygons above this size fall back to a fan: ear clipping here is
 /// quadratic to cubic in the vertex count.
 const MAX_EAR_CLIPPED: usize = 4096;
