@@ -174,11 +174,11 @@ fn guide_fluorescence(materials: &mut [Material], emission: &[f64]) {
 
 static NEXT_SCENE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
-/// Peak bytes a triangle costs while the scene is built: the imported mesh,
-/// the build's boxes and index lists, then the triangles, shading indices,
-/// vertex attributes and BVH nodes that stay (measured: 337 MiB peak for a
-/// 1M-triangle glTF, all told).
-pub const BUILD_BYTES_PER_TRIANGLE: u64 = 320;
+/// Peak bytes a triangle costs while the scene is built: the build's boxes
+/// and index lists, then the triangles, shading indices and BVH nodes that
+/// stay, beside the imported mesh (measured, all told: 186 MB peak for a
+/// 1M-triangle glTF, whose estimate is then 244 MiB; 1.73 GB for 10M).
+pub const BUILD_BYTES_PER_TRIANGLE: u64 = 200;
 
 impl Scene {
     /// Assembles the runtime scene: builds its geometry
