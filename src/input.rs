@@ -92,7 +92,11 @@ pub fn regular_file_size(path: &Path) -> Result<u64, String> {
 /// The bytes of the regular file at `path`; the error says why not
 /// ("cannot read: …").
 pub fn read(path: &Path) -> Result<Vec<u8>, String> {
-    let size = regular_file_size(path)?;
+    read_sized(path, regular_file_size(path)?)
+}
+
+/// `read` of a regular file of `size` bytes (as `regular_file_size` found).
+fn read_sized(path: &Path, size: u64) -> Result<Vec<u8>, String> {
     // The bytes are held while they are decoded: a file larger than the
     // budget (a sparse one reads as zeros) is refused before it is read.
     crate::memory::check("reading the file", size)?;
@@ -106,12 +110,18 @@ pub fn read(path: &Path) -> Result<Vec<u8>, String> {
             MAX_INPUT_BYTES >> 30
         ));
     }
+    record_read(path, &bytes);
+    Ok(bytes)
+}
+
+/// Counts `path` among the files read while `recording`, with a hash of
+/// its bytes.
+fn record_read(path: &Path, bytes: &[u8]) {
     READ.with(|r| {
         if let Some(files) = r.borrow_mut().as_mut() {
-            files.push((path.to_path_buf(), content_hash(&bytes)));
+            files.push((path.to_path_buf(), content_hash(bytes)));
         }
     });
-    Ok(bytes)
 }
 
 /// Files at least this big are mapped rather than read by [`read_mapped`].
@@ -140,7 +150,7 @@ impl std::ops::Deref for FileBytes {
 pub fn read_mapped(path: &Path) -> Result<FileBytes, String> {
     let size = regular_file_size(path)?;
     if size < MAP_AT_LEAST {
-        return read(path).map(FileBytes::Read);
+        return read_sized(path, size).map(FileBytes::Read);
     }
     crate::memory::check("reading the file", size)?;
     let file = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
@@ -149,11 +159,7 @@ pub fn read_mapped(path: &Path) -> Result<FileBytes, String> {
     // fault on the lost pages (as it would for any program that maps its
     // inputs, such as ripgrep); prism never writes its inputs.
     let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| format!("cannot read: {e}"))?;
-    READ.with(|r| {
-        if let Some(files) = r.borrow_mut().as_mut() {
-            files.push((path.to_path_buf(), content_hash(&map)));
-        }
-    });
+    record_read(path, &map);
     Ok(FileBytes::Mapped(map))
 }
 

@@ -88,13 +88,15 @@ impl SceneGeometry {
     /// their shading data are written once, in the BVH's order, straight
     /// from the meshes: on big meshes writing to fresh pages is much of the
     /// work (a 10M-triangle mesh's are 600 MB).
-    pub fn build(shapes: Vec<ShapeInstance>, spheres: Vec<SphereInstance>) -> SceneGeometry {
+    pub fn build(mut shapes: Vec<ShapeInstance>, spheres: Vec<SphereInstance>) -> SceneGeometry {
+        let (attributes, starts) =
+            VertexAttributes::gather(shapes.iter_mut().map(|s| &mut s.mesh).collect());
         let mut light_emitters = Vec::new();
         let mut light_sources = Vec::new();
         let mut meshes: Vec<Mesh> = Vec::with_capacity(shapes.len());
         let mut numbering = Vec::with_capacity(shapes.len());
         let (mut count, mut degenerate) = (0, 0);
-        for shape in shapes {
+        for (shape, (base, flags)) in shapes.into_iter().zip(starts) {
             let emitter = shape.emission.map(|e| {
                 let emitter = Emitter {
                     spectrum: e.spectrum,
@@ -109,17 +111,13 @@ impl SceneGeometry {
             numbering.push(MeshTriangles {
                 first: count,
                 kept,
-                base: 0,
-                flags: 0,
+                base,
+                flags,
                 material: shape.material,
                 emitter,
             });
             count += kept_count;
             meshes.push(shape.mesh);
-        }
-        let (attributes, starts) = VertexAttributes::gather(&mut meshes);
-        for (m, (base, flags)) in numbering.iter_mut().zip(starts) {
-            (m.base, m.flags) = (base, flags);
         }
         // The mesh and vertex indices of the scene's triangle g.
         let locate = |g: usize| -> (usize, [u32; 3]) {
@@ -151,8 +149,9 @@ impl SceneGeometry {
             })
             .collect();
         let mut lights = Vec::new();
+        // Each emitting triangle's light, in the BVH's order.
         let emitting = numbering.iter().any(|m| m.emitter.is_some());
-        for (prim, &g) in order.iter().enumerate().filter(|_| emitting) {
+        for (prim, &g) in order.iter().enumerate().take_while(|_| emitting) {
             if let Some(e) = numbering[locate(g as usize).0].emitter {
                 shading[prim].light = lights.len() as u32;
                 let info = &shading[prim];
@@ -198,9 +197,9 @@ impl VertexAttributes {
     /// meshes without one that others have get zeros (one base index
     /// serves all three arrays). A mesh that holds every vertex gives its
     /// arrays up instead of being copied.
-    fn gather(meshes: &mut [Mesh]) -> (Self, Vec<(u32, u8)>) {
+    fn gather(mut meshes: Vec<&mut Mesh>) -> (Self, Vec<(u32, u8)>) {
         let total: usize = meshes.iter().map(|m| m.positions.len()).sum();
-        let any = |has: fn(&Mesh) -> bool| meshes.iter().any(has);
+        let any = |has: fn(&Mesh) -> bool| meshes.iter().any(|m| has(m));
         let wanted = [
             any(|m| m.normals.is_some()),
             any(|m| m.uvs.is_some()),
@@ -216,7 +215,7 @@ impl VertexAttributes {
         };
         let mut starts = Vec::with_capacity(meshes.len());
         let mut base = 0;
-        for mesh in meshes {
+        for mesh in meshes.iter_mut() {
             let n = mesh.positions.len();
             let sole = n == total;
             let (end, mut flags) = (base + n, 0);
@@ -373,8 +372,8 @@ mod tests {
         with_normals.normals = Some(vec![Vec3::Z; 4]);
         let mut with_uvs = quad(2.0);
         with_uvs.uvs = Some((0..4).map(|i| Vec2::splat(i as f32)).collect());
-        let mut meshes = vec![with_normals, quad(1.0), with_uvs];
-        let (all, starts) = VertexAttributes::gather(&mut meshes);
+        let mut meshes = [with_normals, quad(1.0), with_uvs];
+        let (all, starts) = VertexAttributes::gather(meshes.iter_mut().collect());
         assert_eq!(starts, [(0, HAS_NORMALS), (4, 0), (8, HAS_UVS)]);
         assert_eq!(all.normals[..4], [Vec3::Z; 4]);
         assert_eq!(all.normals[4..], [Vec3::ZERO; 8]);
@@ -387,7 +386,7 @@ mod tests {
         let mut sole = quad(0.0);
         sole.uvs = Some(vec![Vec2::ONE; 4]);
         let held = sole.uvs.as_ref().unwrap().as_ptr();
-        let (all, starts) = VertexAttributes::gather(&mut [sole]);
+        let (all, starts) = VertexAttributes::gather(vec![&mut sole]);
         assert_eq!(starts, [(0, HAS_UVS)]);
         assert_eq!(all.uvs.as_ptr(), held);
         assert!(all.normals.is_empty() && all.tangents.is_empty());

@@ -334,18 +334,23 @@ struct Split {
 /// thread where there are many.
 fn bounds_of(prims: &[BuildPrim]) -> (Box4, Box4) {
     use rayon::prelude::*;
-    let fold = |prims: &[BuildPrim]| {
-        prims.iter().fold((Box4::EMPTY, Box4::EMPTY), |(b, c), p| {
-            (b.union(p.bounds), c.grow(p.centroid2()))
-        })
-    };
+    let fold = |prims: &[BuildPrim]| prims.iter().fold(NO_BOXES, with_prim);
     if prims.len() < 4 * PARALLEL_MIN {
         return fold(prims);
     }
-    prims.par_chunks(PARALLEL_MIN).map(fold).reduce(
-        || (Box4::EMPTY, Box4::EMPTY),
-        |a, b| (a.0.union(b.0), a.1.union(b.1)),
-    )
+    prims
+        .par_chunks(PARALLEL_MIN)
+        .map(fold)
+        .reduce(|| NO_BOXES, |a, b| (a.0.union(b.0), a.1.union(b.1)))
+}
+
+/// The box and centre box of no primitives.
+const NO_BOXES: (Box4, Box4) = (Box4::EMPTY, Box4::EMPTY);
+
+/// `boxes` (a box and a box of doubled centres) grown by `p`.
+#[inline]
+fn with_prim((bounds, centroids): (Box4, Box4), p: &BuildPrim) -> (Box4, Box4) {
+    (bounds.union(p.bounds), centroids.grow(p.centroid2()))
 }
 
 /// Appends a subtree built in a list of its own: its interior nodes' links
@@ -522,26 +527,24 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option
 /// side's boxes as it goes: the children need no pass of their own to
 /// find them (the build spends most of its time reading primitives).
 fn partition(prims: &mut [BuildPrim], on_left: impl Fn(&BuildPrim) -> bool) -> Split {
-    let grow = |(b, c): (Box4, Box4), p: &BuildPrim| (b.union(p.bounds), c.grow(p.centroid2()));
-    let empty = (Box4::EMPTY, Box4::EMPTY);
-    let (mut left, mut right) = (empty, empty);
+    let (mut left, mut right) = (NO_BOXES, NO_BOXES);
     // Hoare's scheme: from both ends, each misplaced pair swapped once.
     let (mut l, mut r) = (0, prims.len());
     loop {
         while l < r && on_left(&prims[l]) {
-            left = grow(left, &prims[l]);
+            left = with_prim(left, &prims[l]);
             l += 1;
         }
         while l < r && !on_left(&prims[r - 1]) {
-            right = grow(right, &prims[r - 1]);
+            right = with_prim(right, &prims[r - 1]);
             r -= 1;
         }
         if l >= r {
             break;
         }
         prims.swap(l, r - 1);
-        left = grow(left, &prims[l]);
-        right = grow(right, &prims[r - 1]);
+        left = with_prim(left, &prims[l]);
+        right = with_prim(right, &prims[r - 1]);
         l += 1;
         r -= 1;
     }

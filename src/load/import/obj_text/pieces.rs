@@ -39,14 +39,7 @@ pub(super) struct Joined<'a, T> {
 impl<'a, T: Copy> Joined<'a, T> {
     pub(super) fn new(parts: impl Iterator<Item = &'a [T]>) -> Self {
         let parts: Vec<&[T]> = parts.collect();
-        let starts = parts
-            .iter()
-            .scan(0, |at, p| {
-                let start = *at;
-                *at += p.len();
-                Some(start)
-            })
-            .collect();
+        let starts = starts_of(parts.iter().map(|p| p.len()));
         Self { parts, starts }
     }
 
@@ -223,14 +216,7 @@ fn gather_by_position(
     span: usize,
     key: &(impl Fn(&[u32; 3]) -> [u32; 3] + Sync),
 ) -> Option<(Vec<[u32; 3]>, Vec<u32>)> {
-    let starts: Vec<usize> = blocks
-        .iter()
-        .scan(0, |at, b| {
-            let start = *at;
-            *at += b.len();
-            Some(start)
-        })
-        .collect();
+    let starts = starts_of(blocks.iter().map(|b| b.len()));
     let count = starts
         .last()
         .map_or(0, |s| s + blocks[blocks.len() - 1].len());
@@ -264,15 +250,8 @@ fn gather_by_position(
         })
         .collect();
     let mut keys = vec![[NONE; 3]; firsts.iter().sum()];
-    let mut key_slices = Vec::with_capacity(blocks.len());
-    let mut rest = keys.as_mut_slice();
-    for &n in &firsts {
-        let (mine, others) = rest.split_at_mut(n);
-        key_slices.push(mine);
-        rest = others;
-    }
     let vertex = table();
-    key_slices
+    split_by_lengths(&mut keys, firsts.iter().copied())
         .into_par_iter()
         .zip(blocks.par_iter().zip(&starts))
         .for_each(|(slice, (b, &start))| {
@@ -285,20 +264,13 @@ fn gather_by_position(
             }
         });
     // Vertex numbers: the blocks' first uses counted before each.
-    let bases: Vec<u32> = firsts
-        .iter()
-        .scan(0u32, |at, &n| {
-            let base = *at;
-            *at += n as u32;
-            Some(base)
-        })
-        .collect();
+    let bases = starts_of(firsts.iter().copied());
     blocks
         .par_iter()
         .zip(&starts)
         .zip(&bases)
         .for_each(|((b, &start), &base)| {
-            let mut next = base;
+            let mut next = base as u32;
             for (j, c) in b.iter().enumerate() {
                 if is_first(c, start + j) {
                     vertex[(c[0] - lo) as usize].store(next, Relaxed);
@@ -308,14 +280,7 @@ fn gather_by_position(
         });
     // Each corner's vertex, and whether its (vt, vn) is its position's.
     let mut corners = vec![0u32; count];
-    let mut corner_slices = Vec::with_capacity(blocks.len());
-    let mut rest = corners.as_mut_slice();
-    for b in blocks {
-        let (mine, others) = rest.split_at_mut(b.len());
-        corner_slices.push(mine);
-        rest = others;
-    }
-    let consistent = corner_slices
+    let consistent = split_by_lengths(&mut corners, blocks.iter().map(|b| b.len()))
         .into_par_iter()
         .zip(blocks.par_iter())
         .all(|(out, b)| {
@@ -325,6 +290,29 @@ fn gather_by_position(
             })
         });
     consistent.then_some((keys, corners))
+}
+
+/// Where each of consecutive parts of these lengths starts.
+fn starts_of(lengths: impl Iterator<Item = usize>) -> Vec<usize> {
+    lengths
+        .scan(0, |at, n| {
+            let start = *at;
+            *at += n;
+            Some(start)
+        })
+        .collect()
+}
+
+/// `items` cut into consecutive parts of these lengths, to be written on
+/// every thread.
+fn split_by_lengths<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    lengths
+        .map(|n| {
+            let (part, rest) = std::mem::take(&mut items).split_at_mut(n);
+            items = rest;
+            part
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The words of an OBJ line and the numbers in them: a byte cursor (no
 //! UTF-8 check on the hot path), decimal floats read exactly without the
-//! general parser where they are short (what exporters write), integers
-//! and face corners.
+//! general parser where they are short (what exporters write), and face
+//! corners.
 
 /// The whitespace-separated words of a line.
 pub(super) struct Words<'a> {
@@ -53,14 +53,18 @@ impl<'a> Iterator for Words<'a> {
 
     #[inline]
     fn next(&mut self) -> Option<&'a [u8]> {
-        let start = self.rest.iter().position(|b| !b.is_ascii_whitespace())?;
-        let rest = &self.rest[start..];
-        let end = rest
+        self.skip_whitespace();
+        if self.rest.is_empty() {
+            return None;
+        }
+        let end = self
+            .rest
             .iter()
             .position(|b| b.is_ascii_whitespace())
-            .unwrap_or(rest.len());
-        self.rest = &rest[end..];
-        Some(&rest[..end])
+            .unwrap_or(self.rest.len());
+        let (word, rest) = self.rest.split_at(end);
+        self.rest = rest;
+        Some(word)
     }
 }
 
