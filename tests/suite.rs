@@ -30,6 +30,7 @@ mod lights;
 mod media;
 mod medium_boundary;
 mod merge;
+mod path_caustics;
 mod progressive;
 mod scene_errors;
 mod settings;

@@ -64,18 +64,101 @@ def cylinder(radius, y0, y1, segments=96):
     return lathe([(0.0, y0), (radius, y0), (radius, y1), (0.0, y1)], segments)
 
 
-def box(x0, y0, z0, x1, y1, z1):
-    v = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
-    # Index = 4*ix + 2*iy + iz.
-    faces = [
-        (0, 1, 3, 2),  # -x
-        (4, 6, 7, 5),  # +x
-        (0, 4, 5, 1),  # -y
-        (2, 3, 7, 6),  # +y
-        (0, 2, 6, 4),  # -z
-        (1, 5, 7, 3),  # +z
-    ]
-    return v, faces
+def outwards(v, faces, centre=(0.0, 0.0, 0.0)):
+    """Winds each face of a convex mesh counter-clockwise seen from outside."""
+    out = []
+    for f in faces:
+        p = [v[i] for i in f]
+        a = [p[1][i] - p[0][i] for i in range(3)]
+        b = [p[2][i] - p[0][i] for i in range(3)]
+        n = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        c = [sum(q[i] for q in p) / len(p) - centre[i] for i in range(3)]
+        out.append(f if sum(n[i] * c[i] for i in range(3)) > 0 else tuple(reversed(f)))
+    return out
+
+
+def ice_cube(size, bevel):
+    """A cube of side `size` centred on the origin with its edges and corners
+    bevelled by `bevel` (as a melting ice cube's are rounded): 6 faces, 12
+    edge strips, 8 corner triangles."""
+    a, b = size / 2, size / 2 - bevel
+    v, index = [], {}
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            for sz in (-1, 1):
+                for axis in range(3):
+                    p = [sx * b, sy * b, sz * b]
+                    p[axis] = (sx, sy, sz)[axis] * a
+                    index[(sx, sy, sz, axis)] = len(v)
+                    v.append(tuple(p))
+    signs = [(sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    faces = [tuple(index[(*s, axis)] for axis in range(3)) for s in signs]  # corners
+    for axis in range(3):
+        for side in (-1, 1):
+            corners = [s for s in signs if s[axis] == side]
+            # Around the face: order its four corners by angle.
+            u, w = [k for k in range(3) if k != axis]
+            corners.sort(key=lambda s: math.atan2(s[w], s[u]))
+            faces.append(tuple(index[(*s, axis)] for s in corners))
+    for axis in range(3):  # edge strips along `axis`
+        u, w = [k for k in range(3) if k != axis]
+        for su in (-1, 1):
+            for sw in (-1, 1):
+                ends = []
+                for s_axis in (-1, 1):
+                    s = [0, 0, 0]
+                    s[axis], s[u], s[w] = s_axis, su, sw
+                    ends.append(tuple(s))
+                faces.append((index[(*ends[0], u)], index[(*ends[1], u)], index[(*ends[1], w)], index[(*ends[0], w)]))
+    return v, outwards(v, faces)
+
+
+def brilliant(crown_deg=34.5, pavilion_deg=40.75, table=0.53, girdle=0.03):
+    """A round brilliant cut of girdle diameter 1 (Tolkowsky's proportions:
+    table 53%, crown 34.5 degrees, pavilion 40.75 degrees): 57 facets — the
+    table, 8 stars, 8 bezels (kites, each split into two triangles) and 16
+    upper girdle facets above a 16-sided girdle; 8 pavilion mains (kites)
+    and 16 lower girdle facets below it, meeting at a pointed culet. The
+    girdle's middle is at y = 0, the table up. Faces are turned outwards
+    from the gem's centre (it is convex)."""
+    R = 0.5
+    gh = girdle / 2
+    tc, tp = math.tan(math.radians(crown_deg)), math.tan(math.radians(pavilion_deg))
+
+    def ring(n, r, y, offset=0.0):
+        return [(r * math.cos(2 * math.pi * (k + offset) / n), y, r * math.sin(2 * math.pi * (k + offset) / n)) for k in range(n)]
+
+    def crown_y(r):
+        return gh + (R - r) * tc
+
+    table_r = table * R / math.cos(math.pi / 8)  # corner radius of the octagon
+    star_r = table_r + 0.5 * (R - table_r)       # stars reach half way down
+    main_r = 0.2 * R                             # lower girdles reach 80% down
+    v = []
+
+    def add(points):
+        v.extend(points)
+        return list(range(len(v) - len(points), len(v)))
+
+    T = add(ring(8, table_r, crown_y(table_r)))
+    S = add(ring(8, star_r, crown_y(star_r), 0.5))
+    G = add(ring(16, R, gh))
+    B = add(ring(16, R, -gh))
+    M = add(ring(8, main_r, -gh - (R - main_r) * tp, 0.5))
+    C = add([(0.0, -gh - R * tp, 0.0)])[0]
+    faces = [tuple(T)]  # the table
+    for k in range(8):
+        k1 = (k + 1) % 8
+        faces.append((T[k], S[k], T[k1]))                          # star
+        faces += [(T[k], S[k - 1], G[2 * k]), (T[k], G[2 * k], S[k])]  # bezel
+        faces += [(S[k], G[2 * k], G[2 * k + 1]), (S[k], G[2 * k + 1], G[(2 * k + 2) % 16])]
+        faces += [(M[k - 1], B[2 * k], C), (C, B[2 * k], M[k])]       # pavilion main
+        faces += [(M[k], B[2 * k], B[2 * k + 1]), (M[k], B[2 * k + 1], B[(2 * k + 2) % 16])]
+    for j in range(16):
+        j1 = (j + 1) % 16
+        faces.append((G[j], B[j], B[j1], G[j1]))  # girdle
+    # The gem's centre lies a little below the girdle.
+    return v, outwards(v, faces, (0.0, -0.1, 0.0))
 
 
 def main():
@@ -87,8 +170,9 @@ def main():
     # Water overlaps the glass wall (r 0.96 between 0.92 and 1) and base: the
     # glass's higher priority fills the overlap, so no surfaces coincide.
     write("water.obj", *cylinder(0.96, 0.1, 1.8), "water: radius 0.96, from y 0.1 to 1.8")
-    write("ice1.obj", *box(-0.45, 1.45, -0.3, 0.05, 1.95, 0.2), "ice cube, 0.5, floating across the surface")
-    write("ice2.obj", *box(0.05, 1.5, 0.0, 0.5, 1.95, 0.45), "ice cube, 0.45")
+    write("ice1.obj", *ice_cube(0.5, 0.06), "ice cube, side 0.5, edges bevelled by 0.06, centred on the origin")
+    write("brilliant.obj", *brilliant(), "round brilliant cut, girdle diameter 1, table up, girdle at y = 0")
+    write("ice2.obj", *ice_cube(0.45, 0.05), "ice cube, side 0.45, edges bevelled by 0.05, centred on the origin")
 
 
 if __name__ == "__main__":

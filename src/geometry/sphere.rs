@@ -204,6 +204,11 @@ impl SphereSet {
         self.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds)
     }
 
+    /// Each sphere with its index as given to `new`.
+    pub fn iter(&self) -> impl Iterator<Item = (u32, &Sphere)> {
+        self.ids.iter().copied().zip(&self.spheres)
+    }
+
     pub fn size_bytes(&self) -> usize {
         self.spheres.len() * (std::mem::size_of::<Sphere>() + 4)
             + self.nodes.len() * std::mem::size_of::<Node>()

@@ -13,9 +13,9 @@ use super::PathCounters;
 
 pub use super::walk::Scatterer;
 use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::Frame;
 use crate::geometry::Ray;
-use crate::light::LightLeSample;
-use crate::light::LightSource;
+use crate::light::{LightLeSample, LightPoint, LightSet, LightSource, SceneSphere};
 use crate::material::TransportMode;
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
@@ -47,8 +47,90 @@ pub fn start(
     counters: &mut PathCounters,
 ) -> Option<LightPath> {
     let (light, pmf) = scene.lights.choose(u_light)?;
+    let emitted = scene.lights.get(light).sample_le(u_pos, u_dir, wl)?;
+    Some(leaving(scene, light, pmf, emitted, counters))
+}
+
+/// `start`, with every ray aimed at the sphere `aim` (around the glass
+/// and metal that caustics come from; Jensen's projection maps, with one
+/// sphere): `aimed` holds the scene's lights with those at infinity bounded
+/// by `aim`, so they send rays from a disc of its cross-section, and a
+/// light with a surface sends them uniformly into the cone that `aim`
+/// subtends from the point (as `start` does from a point inside it).
+/// Point and spot lights emit as in `start`. No ray that could reach the
+/// sphere is left out, and each carries its own density.
+#[allow(clippy::too_many_arguments)]
+pub fn start_aimed(
+    scene: &Scene,
+    aimed: &LightSet,
+    aim: SceneSphere,
+    u_light: f32,
+    u_pos: (f32, f32),
+    u_dir: (f32, f32),
+    wl: &SampledWavelengths,
+    counters: &mut PathCounters,
+) -> Option<LightPath> {
+    let (light, pmf) = aimed.choose(u_light)?;
+    let l = aimed.get(light);
+    let mut emitted = l.sample_le(u_pos, u_dir, wl)?;
+    if l.is_infinite() {
+        // From the disc facing `aim`, back to outside the whole scene, so
+        // that whatever lies between (a roof, a wall) still casts its shadow.
+        let back = scene.sphere.radius + (aim.centre - scene.sphere.centre).length();
+        emitted.point.p -= emitted.dir * back;
+    } else if !l.is_delta() {
+        if let Some((dir, pdf_dir)) = towards_sphere(emitted.point.p, aim, u_dir) {
+            let n = emitted.point.n;
+            emitted = LightLeSample {
+                point: LightPoint {
+                    n: if n.dot(dir) < 0.0 { -n } else { n },
+                    ..emitted.point
+                },
+                dir,
+                le: l.l(emitted.point.uv, dir, wl),
+                pdf_dir,
+                ..emitted
+            };
+            if emitted.le == SampledSpectrum::ZERO {
+                return None;
+            }
+        }
+    }
+    Some(leaving(scene, light, pmf, emitted, counters))
+}
+
+/// A direction from `p` drawn uniformly in the cone of the sphere `s`,
+/// with its solid-angle density; None when `p` lies inside it.
+fn towards_sphere(p: Vec3, s: SceneSphere, u: (f32, f32)) -> Option<(Vec3, f32)> {
+    let to = s.centre - p;
+    let d2 = to.length_squared();
+    let r2 = s.radius * s.radius;
+    if !(d2 > r2) {
+        return None;
+    }
+    // 1 − cos θmax without cancellation for a small, far sphere.
+    let sin2 = r2 / d2;
+    let one_minus_cos_max = sin2 / (1.0 + (1.0 - sin2).sqrt());
+    let one_minus_cos = u.0 * one_minus_cos_max;
+    let cos = 1.0 - one_minus_cos;
+    let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.1;
+    let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
+    let dir = Frame::from_normal(to / d2.sqrt())
+        .to_world(local)
+        .normalize();
+    Some((dir, 1.0 / (2.0 * std::f32::consts::PI * one_minus_cos_max)))
+}
+
+/// The path that `emitted` (of light `light`, chosen with `pmf`) starts.
+fn leaving(
+    scene: &Scene,
+    light: usize,
+    pmf: f32,
+    emitted: LightLeSample,
+    counters: &mut PathCounters,
+) -> LightPath {
     let l = scene.lights.get(light);
-    let emitted = l.sample_le(u_pos, u_dir, wl)?;
     let lp = emitted.point;
     let n = if l.is_delta() || l.is_infinite() {
         Vec3::ZERO
@@ -62,7 +144,7 @@ pub fn start(
         emitted.dir,
     );
     let stack = media_at(scene, lp.p, lp.p_err, n, counters);
-    Some(LightPath {
+    LightPath {
         light,
         pmf,
         emitted,
@@ -70,7 +152,7 @@ pub fn start(
         beta,
         ray,
         stack,
-    })
+    }
 }
 
 /// A vertex a light path reached, offered to `walk`'s `visit`.
@@ -146,7 +228,21 @@ pub fn walk(
     start: LightPath,
     max_depth: u32,
     rr_depth: u32,
-    visit: impl FnMut(LightVertex<'_>),
+    mut visit: impl FnMut(LightVertex<'_>),
+) {
+    walk_until(ctx, start, max_depth, rr_depth, |v| {
+        visit(v);
+        Flow::Go
+    });
+}
+
+/// `walk`, where `visit` may end the path at a vertex (`Flow::End`).
+pub fn walk_until(
+    ctx: &mut PathContext,
+    start: LightPath,
+    max_depth: u32,
+    rr_depth: u32,
+    visit: impl FnMut(LightVertex<'_>) -> Flow,
 ) {
     if max_depth == 0 {
         return;
@@ -161,7 +257,7 @@ struct Visit<F> {
     visit: F,
 }
 
-impl<F: FnMut(LightVertex<'_>)> Visitor for Visit<F> {
+impl<F: FnMut(LightVertex<'_>) -> Flow> Visitor for Visit<F> {
     fn mode(&self) -> TransportMode {
         TransportMode::Importance
     }
@@ -184,7 +280,6 @@ impl<F: FnMut(LightVertex<'_>)> Visitor for Visit<F> {
             depth: walk.depth,
             sampler: &mut *ctx.sampler,
             counters: &mut *ctx.counters,
-        });
-        Flow::Go
+        })
     }
 }

@@ -13,6 +13,8 @@ pub mod ior_stack;
 mod light_path;
 mod light_tracer;
 mod path;
+mod path_caustics;
+mod photon_map;
 mod sppm;
 pub mod volume;
 pub mod walk;
@@ -23,7 +25,9 @@ pub use bdpt::Bdpt;
 pub use interface::flight_end;
 pub use light_tracer::LightTracer;
 pub use path::PathTracer;
-pub use sppm::{PhotonMap, Sppm};
+pub use path_caustics::PathCaustics;
+pub use photon_map::PhotonMap;
+pub use sppm::Sppm;
 
 pub use crate::drive::{PathCounters, PixelSample};
 
@@ -324,6 +328,10 @@ integrators! {
     /// Stochastic progressive photon mapping: caustics, also seen through
     /// glass or in mirrors (consistent, not unbiased).
     Sppm(Sppm) = "sppm",
+    /// Paths from the camera, with caustics (light through glass or off
+    /// metal onto diffuse surfaces) from photons aimed at the glass and
+    /// metal (consistent, not unbiased).
+    PathCaustics(PathCaustics) = "path_caustics",
 }
 
 impl Default for IntegratorKind {

@@ -13,7 +13,7 @@ use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
 use crate::light::LightSource;
-use crate::material::{Bsdf, TransportMode};
+use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -32,6 +32,24 @@ pub struct Stop<'a, 'c> {
     /// The media the path arrived in, and what `trace` said of the surface.
     pub stack: &'a IorStack,
     pub medium: Option<(Entry, bool)>,
+}
+
+/// Caustics estimated apart (`path_caustics`: a photon map of light that
+/// crossed glass or met metal before a diffuse surface). The path tracer
+/// adds the estimate at each diffuse surface it meets and leaves out the
+/// light it would itself find after one through surfaces without a diffuse
+/// lobe, so each path is counted once.
+pub trait Caustics {
+    /// Caustic light reflected towards `wo` at `hit`, for a path that has
+    /// met `depth` surfaces (this one included).
+    fn reflected(
+        &self,
+        hit: &SurfaceHit,
+        wo: glam::Vec3,
+        bsdf: &Bsdf,
+        wl: &SampledWavelengths,
+        depth: u32,
+    ) -> SampledSpectrum;
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -158,6 +176,20 @@ impl PathTracer {
         self.gather(ctx, self.camera_walk(ray), Some(&mut stop), 1)
     }
 
+    /// `radiance` with the caustics that `caustics` estimates in place of
+    /// those the path would find itself (the trait's contract).
+    pub fn radiance_with(
+        &self,
+        ctx: &mut PathContext,
+        ray: Ray,
+        caustics: &dyn Caustics,
+    ) -> SampledSpectrum {
+        let mut visitor = Gather::new(self, None, self.split);
+        visitor.caustics = Some(caustics);
+        walk::walk(ctx, &mut self.camera_walk(ray), &mut visitor);
+        visitor.l
+    }
+
     /// A walk from the camera: radiance, nothing around it yet.
     fn camera_walk(&self, ray: Ray) -> Walk {
         Walk::from_camera(ray, IorStack::default(), self.rr_depth)
@@ -172,16 +204,7 @@ impl PathTracer {
         stop: Option<StopAt<'_>>,
         split: u32,
     ) -> SampledSpectrum {
-        let mut visitor = Gather {
-            tracer: self,
-            l: SampledSpectrum::ZERO,
-            // The camera ray sees emitters as a specular bounce would: no
-            // light sampling competes.
-            specular: true,
-            prev_bsdf_pdf: 0.0,
-            stop,
-            split,
-        };
+        let mut visitor = Gather::new(self, stop, split);
         walk::walk(ctx, &mut walk, &mut visitor);
         visitor.l
     }
@@ -333,6 +356,55 @@ struct Gather<'t, 's> {
     prev_bsdf_pdf: f32,
     stop: Option<StopAt<'s>>,
     split: u32,
+    /// Caustics estimated apart, and what the path owes them: a diffuse
+    /// surface was met and only surfaces without a diffuse lobe since (no
+    /// medium scattering), the last of them just now, so light found now is
+    /// a caustic's.
+    caustics: Option<&'s dyn Caustics>,
+    met_diffuse: bool,
+    in_caustic: bool,
+}
+
+impl<'t, 's> Gather<'t, 's> {
+    fn new(tracer: &'t PathTracer, stop: Option<StopAt<'s>>, split: u32) -> Self {
+        Gather {
+            tracer,
+            l: SampledSpectrum::ZERO,
+            // The camera ray sees emitters as a specular bounce would: no
+            // light sampling competes.
+            specular: true,
+            prev_bsdf_pdf: 0.0,
+            stop,
+            split,
+            caustics: None,
+            met_diffuse: false,
+            in_caustic: false,
+        }
+    }
+
+    /// At a surface with `bsdf`: adds the caustics estimated there (a
+    /// diffuse surface) and notes whether light found next is theirs (the
+    /// surfaces since the last diffuse one have no diffuse lobe: mirrors,
+    /// glass, metal, smooth or rough).
+    fn caustics_at(
+        &mut self,
+        ctx: &mut PathContext,
+        walk: &Walk,
+        hit: &SurfaceHit,
+        wo: glam::Vec3,
+        bsdf: &Bsdf,
+    ) {
+        let Some(caustics) = self.caustics else {
+            return;
+        };
+        if bsdf.flags().contains(BsdfFlags::DIFFUSE) {
+            let reflected = caustics.reflected(hit, wo, bsdf, ctx.wl, walk.depth);
+            self.l += walk.flight.weight(ctx.wl) * reflected;
+            (self.met_diffuse, self.in_caustic) = (true, false);
+        } else {
+            self.in_caustic = self.met_diffuse;
+        }
+    }
 }
 
 impl Visitor for Gather<'_, '_> {
@@ -341,7 +413,8 @@ impl Visitor for Gather<'_, '_> {
     }
 
     fn arrive(&mut self, ctx: &mut PathContext, walk: &Walk, hit: Option<&SurfaceHit>) -> Flow {
-        if let Some((hit, i)) = hit.and_then(|h| h.light.map(|i| (h, i))) {
+        let seen = hit.filter(|_| !self.in_caustic);
+        if let Some((hit, i)) = seen.and_then(|h| h.light.map(|i| (h, i))) {
             let light = ctx.scene.lights.get(i);
             let le = light.l(hit.uv, -walk.ray.dir, ctx.wl);
             if le != SampledSpectrum::ZERO {
@@ -364,6 +437,7 @@ impl Visitor for Gather<'_, '_> {
         let tracer = self.tracer;
         match event.at {
             Scatterer::Medium { .. } => {
+                (self.met_diffuse, self.in_caustic) = (false, false);
                 self.l += tracer.direct(ctx, walk, event);
                 Flow::Go
             }
@@ -383,7 +457,13 @@ impl Visitor for Gather<'_, '_> {
                         return Flow::End;
                     }
                 }
-                self.l += tracer.direct(ctx, walk, event);
+                self.caustics_at(ctx, walk, hit, event.wo, bsdf);
+                if self.in_caustic {
+                    // Keep the dimensions of later bounces aligned.
+                    ctx.sampler.skip_4d();
+                } else {
+                    self.l += tracer.direct(ctx, walk, event);
+                }
                 if self.split > 1 {
                     // The first surface: the sample splits into `split`
                     // continuations, each with its own copy of the path. Its
@@ -412,6 +492,9 @@ impl Visitor for Gather<'_, '_> {
     }
 
     fn escaped(&mut self, ctx: &mut PathContext, walk: &Walk) {
+        if self.in_caustic {
+            return;
+        }
         // Only lights at infinity are seen.
         for (i, light) in ctx.scene.lights.infinite() {
             let le = light.le(walk.ray.dir, ctx.wl);
@@ -442,12 +525,12 @@ impl Gather<'_, '_> {
                 counters: &mut *ctx.counters,
             };
             let mut visitor = Gather {
-                tracer: self.tracer,
-                l: SampledSpectrum::ZERO,
                 specular: self.specular,
                 prev_bsdf_pdf: self.prev_bsdf_pdf,
-                stop: None,
-                split: 1,
+                caustics: self.caustics,
+                met_diffuse: self.met_diffuse,
+                in_caustic: self.in_caustic,
+                ..Gather::new(self.tracer, None, 1)
             };
             let u = ctx_k.sampler.next_4d();
             if walk::scatter_from_surface(&mut ctx_k, &mut branch, event, u, &mut visitor) {

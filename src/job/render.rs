@@ -159,6 +159,9 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
             p.initial_radius(scene)
         );
     }
+    if let Integrator::PathCaustics(p) = &settings.integrator {
+        eprintln!("{}", p.summary(scene));
+    }
 
     let (result, stats) = render(scene, settings, &options)?;
     report_render(job, &options, &result, &stats, &settings.film);

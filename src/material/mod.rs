@@ -307,6 +307,16 @@ pub struct ShadingGeometry {
 }
 
 impl Material {
+    /// Whether its surfaces may scatter without a diffuse lobe (glass,
+    /// metal, and glTF materials, which may be either): where caustics
+    /// come from.
+    pub fn may_focus_light(&self) -> bool {
+        matches!(
+            self,
+            Material::Conductor { .. } | Material::Dielectric { .. } | Material::Pbr(_)
+        )
+    }
+
     /// Which kind of material this is.
     pub fn kind(&self) -> MaterialKind {
         match self {

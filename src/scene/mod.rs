@@ -371,6 +371,23 @@ impl Scene {
             .union(self.geometry.spheres.bounds())
     }
 
+    /// The bounds of the surfaces whose material `pick` chooses (empty
+    /// when there are none).
+    pub fn bounds_where(&self, pick: impl Fn(&Material) -> bool) -> Aabb {
+        let picked: Vec<bool> = self.materials.iter().map(pick).collect();
+        let g = &self.geometry;
+        let triangles = g.triangles.iter().zip(&g.shading);
+        let mut bounds = triangles
+            .filter(|(_, s)| picked[s.material as usize])
+            .fold(Aabb::EMPTY, |b, (t, _)| b.union(Aabb::of_points(t)));
+        for (id, sphere) in g.spheres.iter() {
+            if picked[g.sphere_shading[id as usize].material as usize] {
+                bounds = bounds.union(sphere.bounds());
+            }
+        }
+        bounds
+    }
+
     pub fn bvh(&self) -> &Bvh {
         &self.geometry.bvh
     }

@@ -1,0 +1,322 @@
+//! Path tracing with caustics from photons: the path tracer, with the light
+//! that reaches a diffuse surface through glass or off metal (a caustic:
+//! light → glass or metal … → diffuse surface) estimated by a photon map
+//! instead (Jensen's caustic map, in the probabilistic progressive form of
+//! Knaus & Zwicker 2011 that `sppm` uses). Every other path is the path
+//! tracer's, with light sampling and MIS.
+//!
+//! Why: a caustic's light is found by a camera path only when BSDF
+//! sampling, from the diffuse surface through the glass, happens to hit
+//! the light. For the sun (a 0.5° disc) or a small lamp that is rare and
+//! the image speckles. From the light the same path is easy: photons are
+//! aimed at a sphere around the scene's glass and metal (Jensen's
+//! projection map), so none is spent on the rest of the scene, and each
+//! lands where the caustic is.
+//!
+//! Each full path is counted once. A caustic here is Jensen's L S+ D with
+//! S any surface without a diffuse lobe (glass and metal, smooth or rough:
+//! the sun off gold of roughness 0.08 speckles as much as through glass).
+//! A camera path adds the photons' estimate at each diffuse surface it
+//! meets, and leaves out the light it would find after it through such
+//! surfaces alone (`path::Caustics`); photons are stored only at the first
+//! diffuse surface after such a chain (and end there). Scattering in a
+//! medium breaks a chain on both sides. Keeping rough surfaces with the
+//! path tracer instead made the sunset 5× noisier for the time and left
+//! gem-studio as it was. Photons of iteration i use the radius r_i = r_1 (i + 1)^((α−1)/2)
+//! and a wavelength kernel that shrinks alike: consistent, not unbiased.
+
+use std::sync::{Arc, Mutex};
+
+use super::light_path::{self, Scatterer};
+use super::path::{Caustics, PathTracer};
+use super::photon_map::{Photon, PhotonMap, PHOTON_BYTES, PHOTON_ROW};
+use super::sppm::{Sppm, SppmParams};
+use super::walk::{Flow, PathContext};
+use super::{camera_ray, CommonParams, Configure, PathCounters, PixelSample};
+use crate::drive::pixels::PixelEstimator;
+use crate::light::{LightSet, LightSource, SceneSphere};
+use crate::material::{Bsdf, BsdfFlags};
+use crate::sampler::Sampler;
+use crate::scene::{Scene, SurfaceHit};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// Path tracing with a caustic photon map (`type = "path_caustics"`). Its
+/// keys are photon mapping's (`photons`, `radius`, `alpha`,
+/// `spectral_radius`), for the caustic photons alone.
+#[derive(Clone, Debug)]
+pub struct PathCaustics {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    /// The photon side: its counts, radii and kernels.
+    photons: Sppm,
+    /// Per scene (keyed by `Scene::id`): where photons are aimed.
+    aim: Arc<Mutex<Option<(u64, Arc<Aim>)>>>,
+}
+
+/// Where a scene's caustic photons are aimed, and what a photon leaves.
+#[derive(Debug)]
+struct Aim {
+    /// The sphere around every surface that may focus light; None when the
+    /// scene has none (then there are no caustics to map).
+    sphere: Option<SceneSphere>,
+    /// The scene's lights, those at infinity bounded by the sphere.
+    lights: LightSet,
+    /// Photons stored per photon emitted, from a pilot.
+    stored_per_photon: f64,
+}
+
+impl Configure for PathCaustics {
+    type Params = SppmParams;
+
+    fn configure(common: &CommonParams, spec: SppmParams) -> Result<Self, String> {
+        let photons = Sppm::configure(common, spec)?;
+        Ok(Self {
+            max_depth: photons.max_depth,
+            rr_depth: photons.rr_depth,
+            photons,
+            aim: Arc::default(),
+        })
+    }
+}
+
+impl Default for PathCaustics {
+    fn default() -> Self {
+        Self::configure(&CommonParams::default(), SppmParams::default())
+            .expect("the defaults are valid")
+    }
+}
+
+impl PartialEq for PathCaustics {
+    fn eq(&self, other: &Self) -> bool {
+        self.photons == other.photons
+    }
+}
+
+/// One iteration's caustic photons, as the path tracer asks for them.
+pub struct CausticMap {
+    map: PhotonMap,
+    max_depth: u32,
+}
+
+impl Caustics for CausticMap {
+    fn reflected(
+        &self,
+        hit: &SurfaceHit,
+        wo: glam::Vec3,
+        bsdf: &Bsdf,
+        wl: &SampledWavelengths,
+        depth: u32,
+    ) -> SampledSpectrum {
+        // Photons of up to max_depth + 1 − depth surfaces keep the whole
+        // path within max_depth bounces.
+        let most = (self.max_depth + 1).saturating_sub(depth);
+        self.map.gather(hit.p, wo, bsdf, wl, most)
+    }
+}
+
+impl PixelEstimator for PathCaustics {
+    type Shared = CausticMap;
+
+    fn prepares(&self) -> bool {
+        true
+    }
+
+    fn prepare(&self, scene: &Scene, seed: u64, index: u32) -> (CausticMap, PathCounters) {
+        let aim = self.aim(scene);
+        let n = self.photons_per_iteration(scene);
+        let shrink = (index as f32 + 1.0).powf(0.5 * (self.photons.alpha - 1.0));
+        let radius = self.initial_radius(scene, &aim) * shrink;
+        let spectral_radius = self.photons.spectral_radius * shrink;
+        let (map, counters) = match aim.sphere {
+            Some(_) => PhotonMap::traced(n, seed, index, radius, spectral_radius, |s, out, c| {
+                self.trace_photon(scene, &aim, s, out, c)
+            }),
+            None => (PhotonMap::default(), PathCounters::default()),
+        };
+        let max_depth = self.max_depth;
+        (CausticMap { map, max_depth }, counters)
+    }
+
+    fn shared_bytes(&self, scene: &Scene) -> u64 {
+        let aim = self.aim(scene);
+        let stored = self.photons_per_iteration(scene) as f64 * aim.stored_per_photon;
+        (stored * (3 * PHOTON_BYTES + 40) as f64) as u64
+    }
+
+    fn sample(
+        &self,
+        scene: &Scene,
+        (x, y): (u32, u32),
+        sampler: &mut Sampler,
+        caustics: &CausticMap,
+        counters: &mut PathCounters,
+    ) -> PixelSample {
+        let [dx, dy, u_lambda, _] = sampler.next_4d();
+        let mut wl = scene.wavelengths.sample(u_lambda);
+        let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
+        let tracer = PathTracer {
+            max_depth: self.max_depth,
+            rr_depth: self.rr_depth,
+            ..PathTracer::default()
+        };
+        let mut ctx = PathContext {
+            scene,
+            wl: &mut wl,
+            sampler,
+            counters,
+        };
+        let l = tracer.radiance_with(&mut ctx, ray, caustics);
+        PixelSample { l, wl }
+    }
+}
+
+renders_by_pixels!(PathCaustics);
+
+/// The pilot photons that measure how many a photon stores.
+const PILOT: u32 = 1 << 14;
+const PILOT_SEED: u64 = 0xca05_0000;
+
+impl PathCaustics {
+    /// Where the scene's photons are aimed (computed once per scene).
+    fn aim(&self, scene: &Scene) -> Arc<Aim> {
+        let mut cached = self.aim.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, aim)) = cached.as_ref().filter(|(id, _)| *id == scene.id()) {
+            return aim.clone();
+        }
+        let bounds = scene.bounds_where(|m| m.may_focus_light());
+        let sphere = (bounds.min.cmple(bounds.max).all()).then(|| SceneSphere {
+            centre: bounds.centroid(),
+            // A little more, so that a ray grazing a sphere's edge in f32
+            // is not left out.
+            radius: 0.5 * bounds.diagonal().length() * 1.001 + 1e-6,
+        });
+        let lights = match sphere {
+            Some(s) => LightSet::new(
+                scene
+                    .lights
+                    .clone()
+                    .into_lights()
+                    .into_iter()
+                    .map(|l| l.with_scene_bounds(s))
+                    .collect(),
+            ),
+            None => LightSet::default(),
+        };
+        let mut aim = Aim {
+            sphere,
+            lights,
+            stored_per_photon: 0.0,
+        };
+        if sphere.is_some() {
+            let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
+            for j in 0..PILOT {
+                let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
+                self.trace_photon(scene, &aim, &mut sampler, &mut stored, &mut counters);
+                stored.clear();
+            }
+            aim.stored_per_photon = counters.photons_stored as f64 / PILOT as f64;
+        }
+        let aim = Arc::new(aim);
+        *cached = Some((scene.id(), aim.clone()));
+        aim
+    }
+
+    /// Photons per iteration: the given number, or one per pixel within
+    /// [2¹⁴, 2²²]. On the sunset at 320 × 180, 16 samples, one per pixel
+    /// cost 30% more time than a quarter and four per pixel twice as much;
+    /// see docs/integrators.md for the error each buys.
+    fn photons_per_iteration(&self, scene: &Scene) -> u32 {
+        self.photons.photons.unwrap_or_else(|| {
+            let (w, h) = scene.camera.resolution();
+            ((w as u64) * (h as u64)).clamp(1 << 14, 1 << 22) as u32
+        })
+    }
+
+    /// What the log says of the photons: how many, aimed where, and the
+    /// first radius.
+    pub fn summary(&self, scene: &Scene) -> String {
+        let aim = self.aim(scene);
+        match aim.sphere {
+            Some(s) => format!(
+                "caustic photons: {} per iteration, aimed at a sphere of radius {:.4} around the \
+                 glass and metal ({:.3} stored per photon), radius {:.4} (scene units) in the first",
+                self.photons_per_iteration(scene),
+                s.radius,
+                aim.stored_per_photon,
+                self.initial_radius(scene, &aim)
+            ),
+            None => "caustic photons: none (no glass or metal in the scene)".to_string(),
+        }
+    }
+
+    /// The first iteration's radius: the given one, or four pixels' width
+    /// where the camera sees the glass and metal.
+    fn initial_radius(&self, scene: &Scene, aim: &Aim) -> f32 {
+        if let Some(r) = self.photons.radius {
+            return r;
+        }
+        let centre = aim.sphere.map_or(scene.sphere.centre, |s| s.centre);
+        let distance = (centre - scene.camera.position).length();
+        let r = 4.0 * scene.camera.pixel_footprint(distance);
+        if r > 0.0 && r.is_finite() {
+            r
+        } else {
+            self.photons.initial_radius(scene)
+        }
+    }
+
+    /// One photon aimed at the glass and metal: stored at the first diffuse
+    /// surface it reaches after one or more without a diffuse lobe (glass,
+    /// metal), and ended there; dropped when it meets a diffuse surface
+    /// first, or scatters in a medium.
+    fn trace_photon(
+        &self,
+        scene: &Scene,
+        aim: &Aim,
+        sampler: &mut Sampler,
+        out: &mut Vec<Photon>,
+        counters: &mut PathCounters,
+    ) {
+        let Some(sphere) = aim.sphere else {
+            return;
+        };
+        let [u_lambda, u_light, p0, p1] = sampler.next_4d();
+        let [d0, d1, _, _] = sampler.next_4d();
+        let mut wl = scene.wavelengths.sample(u_lambda);
+        let start = light_path::start_aimed(
+            scene,
+            &aim.lights,
+            sphere,
+            u_light,
+            (p0, p1),
+            (d0, d1),
+            &wl,
+            counters,
+        );
+        let Some(start) = start else {
+            return;
+        };
+        let mut ctx = PathContext {
+            scene,
+            wl: &mut wl,
+            sampler,
+            counters,
+        };
+        let (max_depth, rr_depth) = (self.max_depth, self.rr_depth);
+        light_path::walk_until(&mut ctx, start, max_depth, rr_depth, |v| {
+            let Scatterer::Surface { hit, bsdf, .. } = v.at else {
+                return Flow::End;
+            };
+            if !bsdf.flags().contains(BsdfFlags::DIFFUSE) {
+                return Flow::Go;
+            }
+            if v.depth >= 2 {
+                if let Some(photon) = Photon::landed(&v, hit.p) {
+                    v.counters.photons_stored += 1;
+                    out.push(photon);
+                }
+            }
+            Flow::End
+        });
+    }
+}

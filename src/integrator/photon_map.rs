@@ -1,0 +1,243 @@
+//! A photon map: the photons one iteration left on diffuse surfaces, filed
+//! in a hash grid, and the density estimate that turns those within a
+//! radius (and a wavelength kernel) into reflected radiance. Photon
+//! mapping (`sppm`) and the path tracer's caustics (`path_caustics`) use it.
+
+use glam::{IVec3, Vec3, Vec4};
+use rayon::prelude::*;
+
+use super::light_path::LightVertex;
+use super::PathCounters;
+use crate::sampler::Sampler;
+
+use crate::material::{Bsdf, TransportMode};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// Photons traced by one task: small, so that an iteration of a few tens
+/// of thousands of photons still keeps 16 threads busy. The map does not
+/// depend on it (batches are concatenated in photon order).
+const PHOTON_BATCH: u32 = 512;
+/// Photons' random streams use this row of the sampler's pixel grid,
+/// which no image reaches, so they never share a camera sample's numbers.
+pub(super) const PHOTON_ROW: u32 = u32::MAX;
+/// The bytes of a stored photon (for memory estimates).
+pub(super) const PHOTON_BYTES: u64 = std::mem::size_of::<Photon>() as u64;
+
+/// A photon that landed on a diffuse surface.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Photon {
+    pub p: Vec3,
+    /// Towards where it came from.
+    pub wi: Vec3,
+    pub lambda: Vec4,
+    /// Flux per wavelength over 4 × its wavelength density (zero for a
+    /// terminated wavelength): what it adds through the wavelength kernel.
+    pub weight: Vec4,
+    /// Surfaces it met, this one included (2 or more: direct light is
+    /// sampled at the visible point instead).
+    pub depth: u32,
+}
+
+impl Photon {
+    /// The photon a light path leaves at `p`, the point of vertex `v`
+    /// (None when it carries nothing).
+    pub(super) fn landed(v: &LightVertex, p: Vec3) -> Option<Photon> {
+        let mut weight = Vec4::ZERO;
+        for k in 0..4 {
+            if v.wl.pdf[k] > 0.0 {
+                weight[k] = v.beta[k] / (4.0 * v.wl.pdf[k]);
+            }
+        }
+        (weight.is_finite() && weight != Vec4::ZERO).then_some(Photon {
+            p,
+            wi: v.wo,
+            lambda: v.wl.lambda,
+            weight,
+            depth: v.depth,
+        })
+    }
+}
+
+/// One iteration's photons in a hash grid, with the iteration's kernels.
+#[derive(Debug, Default)]
+pub struct PhotonMap {
+    photons: Vec<Photon>,
+    grid: HashGrid,
+    /// Photons emitted (stored or not).
+    emitted: u64,
+    radius: f32,
+    spectral_radius: f32,
+}
+
+/// Photons by grid cell: cells of twice the radius, hashed into a table;
+/// each bucket lists its photons in emission order (so a gather sums them
+/// in a fixed order, whatever the thread count).
+#[derive(Debug, Default)]
+struct HashGrid {
+    inv_cell: f32,
+    mask: usize,
+    /// Bucket b holds `indices[starts[b]..starts[b + 1]]`.
+    starts: Vec<u32>,
+    indices: Vec<u32>,
+}
+
+impl HashGrid {
+    fn build(points: impl Iterator<Item = Vec3> + Clone, count: usize, cell: f32) -> Self {
+        let size = (2 * count).next_power_of_two().max(1);
+        let mut grid = Self {
+            inv_cell: 1.0 / cell,
+            mask: size - 1,
+            starts: vec![0; size + 1],
+            indices: vec![0; count],
+        };
+        for p in points.clone() {
+            let b = grid.bucket(grid.cell(p));
+            grid.starts[b + 1] += 1;
+        }
+        for b in 0..size {
+            grid.starts[b + 1] += grid.starts[b];
+        }
+        let mut next = grid.starts.clone();
+        for (i, p) in points.enumerate() {
+            let b = grid.bucket(grid.cell(p));
+            grid.indices[next[b] as usize] = i as u32;
+            next[b] += 1;
+        }
+        grid
+    }
+
+    fn cell(&self, p: Vec3) -> IVec3 {
+        (p * self.inv_cell).floor().as_ivec3()
+    }
+
+    fn bucket(&self, c: IVec3) -> usize {
+        let h = (c.x as u32).wrapping_mul(73_856_093)
+            ^ (c.y as u32).wrapping_mul(19_349_663)
+            ^ (c.z as u32).wrapping_mul(83_492_791);
+        h as usize & self.mask
+    }
+
+    /// The buckets that may hold points within `r` of `p` (r at most half
+    /// a cell: 2 × 2 × 2 cells), each once.
+    fn buckets_near(&self, p: Vec3, r: f32) -> ([usize; 8], usize) {
+        let (lo, hi) = (self.cell(p - Vec3::splat(r)), self.cell(p + Vec3::splat(r)));
+        let mut out = [0; 8];
+        let mut n = 0;
+        for z in lo.z..=hi.z.min(lo.z + 1) {
+            for y in lo.y..=hi.y.min(lo.y + 1) {
+                for x in lo.x..=hi.x.min(lo.x + 1) {
+                    let b = self.bucket(IVec3::new(x, y, z));
+                    if !out[..n].contains(&b) {
+                        out[n] = b;
+                        n += 1;
+                    }
+                }
+            }
+        }
+        (out, n)
+    }
+
+    fn bucket_items(&self, b: usize) -> &[u32] {
+        &self.indices[self.starts[b] as usize..self.starts[b + 1] as usize]
+    }
+}
+
+impl PhotonMap {
+    /// Iteration `index`'s map of `n` photons, each traced by `trace_one`
+    /// with a sampler of its own (which may store any number), in batches
+    /// on every thread; the map is the same for any thread count.
+    pub(super) fn traced(
+        n: u32,
+        seed: u64,
+        index: u32,
+        radius: f32,
+        spectral_radius: f32,
+        trace_one: impl Fn(&mut Sampler, &mut Vec<Photon>, &mut PathCounters) + Sync,
+    ) -> (Self, PathCounters) {
+        let batches: Vec<(Vec<Photon>, PathCounters)> = (0..n.div_ceil(PHOTON_BATCH))
+            .into_par_iter()
+            .map(|b| {
+                let mut photons = Vec::new();
+                let mut counters = PathCounters::default();
+                for j in b * PHOTON_BATCH..((b + 1) * PHOTON_BATCH).min(n) {
+                    let mut sampler = Sampler::for_sample(seed, j, PHOTON_ROW, index as u64);
+                    trace_one(&mut sampler, &mut photons, &mut counters);
+                }
+                (photons, counters)
+            })
+            .collect();
+        let mut counters = PathCounters::default();
+        let mut photons = Vec::with_capacity(batches.iter().map(|b| b.0.len()).sum());
+        for (batch, c) in batches {
+            photons.extend_from_slice(&batch);
+            counters.add(&c);
+        }
+        (
+            Self::new(photons, n as u64, radius, spectral_radius),
+            counters,
+        )
+    }
+
+    /// The map of `photons`, out of `emitted` traced, with the iteration's
+    /// kernels.
+    pub(super) fn new(
+        photons: Vec<Photon>,
+        emitted: u64,
+        radius: f32,
+        spectral_radius: f32,
+    ) -> Self {
+        let grid = HashGrid::build(photons.iter().map(|p| p.p), photons.len(), 2.0 * radius);
+        Self {
+            photons,
+            grid,
+            emitted,
+            radius,
+            spectral_radius,
+        }
+    }
+
+    /// Radiance towards `wo` reflected at `p` from the photons within the
+    /// radius (and, in wavelength, within the spectral radius).
+    pub(super) fn gather(
+        &self,
+        p: Vec3,
+        wo: Vec3,
+        bsdf: &Bsdf,
+        wl: &SampledWavelengths,
+        max_depth: u32,
+    ) -> SampledSpectrum {
+        if self.photons.is_empty() || self.radius <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let r2 = self.radius * self.radius;
+        let h = self.spectral_radius;
+        let mut sum = SampledSpectrum::ZERO;
+        let (buckets, n) = self.grid.buckets_near(p, self.radius);
+        for &b in &buckets[..n] {
+            for &i in self.grid.bucket_items(b) {
+                let photon = &self.photons[i as usize];
+                if photon.depth > max_depth || (photon.p - p).length_squared() > r2 {
+                    continue;
+                }
+                // The photon's flux near each of the visible point's wavelengths.
+                let mut near = SampledSpectrum::ZERO;
+                for a in 0..4 {
+                    if wl.pdf[a] == 0.0 {
+                        continue;
+                    }
+                    for k in 0..4 {
+                        if (photon.lambda[k] - wl.lambda[a]).abs() < h {
+                            near[a] += photon.weight[k];
+                        }
+                    }
+                }
+                if near == SampledSpectrum::ZERO {
+                    continue;
+                }
+                sum += bsdf.f(wo, photon.wi, TransportMode::Radiance) * near;
+            }
+        }
+        let kernel = 1.0 / (self.emitted as f32 * std::f32::consts::PI * r2 * 2.0 * h);
+        sum * kernel
+    }
+}
