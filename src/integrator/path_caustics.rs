@@ -39,10 +39,9 @@ use crate::material::{Bsdf, BsdfFlags};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use serde::Deserialize;
 
-/// Path tracing with a caustic photon map (`type = "path_caustics"`). Its
-/// keys are photon mapping's (`photons`, `radius`, `alpha`,
-/// `spectral_radius`), for the caustic photons alone.
+/// Path tracing with a caustic photon map (`type = "path_caustics"`).
 #[derive(Clone, Debug)]
 pub struct PathCaustics {
     pub max_depth: u32,
@@ -50,8 +49,11 @@ pub struct PathCaustics {
     /// The photon side: its counts, radii and kernels.
     photons: Sppm,
     /// Per scene (keyed by `Scene::id`): where photons are aimed.
-    aim: Arc<Mutex<Option<(u64, Arc<Aim>)>>>,
+    aim: AimCache,
 }
+
+/// The last scene's id and its `Aim`.
+type AimCache = Arc<Mutex<Option<(u64, Arc<Aim>)>>>;
 
 /// Where a scene's caustic photons are aimed, and what a photon leaves.
 #[derive(Debug)]
@@ -65,10 +67,30 @@ struct Aim {
     stored_per_photon: f64,
 }
 
-impl Configure for PathCaustics {
-    type Params = SppmParams;
+/// Its own keys of `[integrator]`: photon mapping's, for the caustic
+/// photons, but for the wavelength kernel, which it does not need.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CausticParams {
+    /// Photons per iteration (default: one per pixel).
+    pub photons: Option<u32>,
+    /// The first iteration's radius (default: four pixels' width at the
+    /// glass and metal).
+    pub radius: Option<f32>,
+    /// Radius reduction exponent α in (0, 1] (default 2/3).
+    pub alpha: Option<f32>,
+}
 
-    fn configure(common: &CommonParams, spec: SppmParams) -> Result<Self, String> {
+impl Configure for PathCaustics {
+    type Params = CausticParams;
+
+    fn configure(common: &CommonParams, spec: CausticParams) -> Result<Self, String> {
+        let spec = SppmParams {
+            photons: spec.photons,
+            radius: spec.radius,
+            alpha: spec.alpha,
+            spectral_radius: None,
+        };
         let photons = Sppm::configure(common, spec)?;
         Ok(Self {
             max_depth: photons.max_depth,
@@ -81,7 +103,7 @@ impl Configure for PathCaustics {
 
 impl Default for PathCaustics {
     fn default() -> Self {
-        Self::configure(&CommonParams::default(), SppmParams::default())
+        Self::configure(&CommonParams::default(), CausticParams::default())
             .expect("the defaults are valid")
     }
 }
@@ -92,10 +114,12 @@ impl PartialEq for PathCaustics {
     }
 }
 
-/// One iteration's caustic photons, as the path tracer asks for them.
+/// One iteration's caustic photons, as the path tracer asks for them, and
+/// the iteration's wavelengths, which every photon and camera path share.
 pub struct CausticMap {
     map: PhotonMap,
     max_depth: u32,
+    wl: SampledWavelengths,
 }
 
 impl Caustics for CausticMap {
@@ -110,7 +134,7 @@ impl Caustics for CausticMap {
         // Photons of up to max_depth + 1 − depth surfaces keep the whole
         // path within max_depth bounces.
         let most = (self.max_depth + 1).saturating_sub(depth);
-        self.map.gather(hit.p, wo, bsdf, wl, most)
+        self.map.gather_matched(hit.p, wo, bsdf, wl, &self.wl, most)
     }
 }
 
@@ -126,15 +150,15 @@ impl PixelEstimator for PathCaustics {
         let n = self.photons_per_iteration(scene);
         let shrink = (index as f32 + 1.0).powf(0.5 * (self.photons.alpha - 1.0));
         let radius = self.initial_radius(scene, &aim) * shrink;
-        let spectral_radius = self.photons.spectral_radius * shrink;
+        let wl = scene.wavelengths.sample(iteration_u(seed, index));
         let (map, counters) = match aim.sphere {
-            Some(_) => PhotonMap::traced(n, seed, index, radius, spectral_radius, |s, out, c| {
-                self.trace_photon(scene, &aim, s, out, c)
+            Some(_) => PhotonMap::traced(n, seed, index, radius, 0.0, |s, out, c| {
+                self.trace_photon(scene, &aim, wl, s, out, c)
             }),
             None => (PhotonMap::default(), PathCounters::default()),
         };
         let max_depth = self.max_depth;
-        (CausticMap { map, max_depth }, counters)
+        (CausticMap { map, max_depth, wl }, counters)
     }
 
     fn shared_bytes(&self, scene: &Scene) -> u64 {
@@ -151,8 +175,11 @@ impl PixelEstimator for PathCaustics {
         caustics: &CausticMap,
         counters: &mut PathCounters,
     ) -> PixelSample {
-        let [dx, dy, u_lambda, _] = sampler.next_4d();
-        let mut wl = scene.wavelengths.sample(u_lambda);
+        // The iteration's wavelengths, not the pixel's own: a photon then
+        // counts at exactly its wavelengths (no kernel, which blurs or, as
+        // narrow as a dispersed caustic needs, leaves colour grain).
+        let [dx, dy, _, _] = sampler.next_4d();
+        let mut wl = caustics.wl;
         let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
         let tracer = PathTracer {
             max_depth: self.max_depth,
@@ -171,6 +198,15 @@ impl PixelEstimator for PathCaustics {
 }
 
 renders_by_pixels!(PathCaustics);
+
+/// Iteration `index`'s wavelength number: the base-2 radical inverse of
+/// the index, turned by a number of the seed (Cranley–Patterson), so that
+/// any 2^k consecutive iterations from 0 stratify the spectrum.
+fn iteration_u(seed: u64, index: u32) -> f32 {
+    let shift = Sampler::for_sample(seed, 0, u32::MAX - 1, 0).next_4d()[0];
+    let u = index.reverse_bits() as f32 * (1.0 / 4_294_967_296.0) + shift;
+    (u - u.floor()).min(1.0 - f32::EPSILON / 2.0)
+}
 
 /// The pilot photons that measure how many a photon stores.
 const PILOT: u32 = 1 << 14;
@@ -211,7 +247,8 @@ impl PathCaustics {
             let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
             for j in 0..PILOT {
                 let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
-                self.trace_photon(scene, &aim, &mut sampler, &mut stored, &mut counters);
+                let wl = scene.wavelengths.sample(0.5);
+                self.trace_photon(scene, &aim, wl, &mut sampler, &mut stored, &mut counters);
                 stored.clear();
             }
             aim.stored_per_photon = counters.photons_stored as f64 / PILOT as f64;
@@ -273,6 +310,7 @@ impl PathCaustics {
         &self,
         scene: &Scene,
         aim: &Aim,
+        mut wl: SampledWavelengths,
         sampler: &mut Sampler,
         out: &mut Vec<Photon>,
         counters: &mut PathCounters,
@@ -280,9 +318,8 @@ impl PathCaustics {
         let Some(sphere) = aim.sphere else {
             return;
         };
-        let [u_lambda, u_light, p0, p1] = sampler.next_4d();
+        let [_, u_light, p0, p1] = sampler.next_4d();
         let [d0, d1, _, _] = sampler.next_4d();
-        let mut wl = scene.wavelengths.sample(u_lambda);
         let start = light_path::start_aimed(
             scene,
             &aim.lights,

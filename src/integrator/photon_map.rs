@@ -11,7 +11,7 @@ use super::PathCounters;
 use crate::sampler::Sampler;
 
 use crate::material::{Bsdf, TransportMode};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 
 /// Photons traced by one task: small, so that an iteration of a few tens
 /// of thousands of photons still keeps 16 threads busy. The map does not
@@ -36,6 +36,9 @@ pub(super) struct Photon {
     /// Surfaces it met, this one included (2 or more: direct light is
     /// sampled at the visible point instead).
     pub depth: u32,
+    /// It lost its secondary wavelengths to dispersion (its hero's weight
+    /// makes up for them).
+    pub terminated: bool,
 }
 
 impl Photon {
@@ -54,6 +57,7 @@ impl Photon {
             lambda: v.wl.lambda,
             weight,
             depth: v.depth,
+            terminated: v.wl.secondary_terminated(),
         })
     }
 }
@@ -143,6 +147,51 @@ impl HashGrid {
 }
 
 impl PhotonMap {
+    /// Radiance towards `wo` reflected at `p` from the photons within the
+    /// radius, where photons and the camera path carry the same
+    /// wavelengths (`path_caustics`): a photon counts at each wavelength
+    /// the path still carries, by its flux there (its weight times the
+    /// density `start` drew the wavelengths with). A photon that lost its
+    /// secondaries to dispersion carries its hero four times over, which
+    /// makes up for the path's lost wavelengths, unless the camera path
+    /// lost them too and makes up for them itself.
+    pub(super) fn gather_matched(
+        &self,
+        p: Vec3,
+        wo: Vec3,
+        bsdf: &Bsdf,
+        wl: &SampledWavelengths,
+        start: &SampledWavelengths,
+        max_depth: u32,
+    ) -> SampledSpectrum {
+        if self.photons.is_empty() || self.radius <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let r2 = self.radius * self.radius;
+        let live = wl.pdf.cmpgt(Vec4::ZERO);
+        let flux_per_weight = Vec4::select(live, 4.0 * start.pdf, Vec4::ZERO);
+        let both_lost = flux_per_weight / N_WAVELENGTHS as f32;
+        let camera_lost = wl.secondary_terminated();
+        let mut sum = SampledSpectrum::ZERO;
+        let (buckets, n) = self.grid.buckets_near(p, self.radius);
+        for &b in &buckets[..n] {
+            for &i in self.grid.bucket_items(b) {
+                let photon = &self.photons[i as usize];
+                if photon.depth > max_depth || (photon.p - p).length_squared() > r2 {
+                    continue;
+                }
+                let flux = photon.weight
+                    * if camera_lost && photon.terminated {
+                        both_lost
+                    } else {
+                        flux_per_weight
+                    };
+                sum += bsdf.f(wo, photon.wi, TransportMode::Radiance) * flux;
+            }
+        }
+        sum * (1.0 / (self.emitted as f32 * std::f32::consts::PI * r2))
+    }
+
     /// Iteration `index`'s map of `n` photons, each traced by `trace_one`
     /// with a sampler of its own (which may store any number), in batches
     /// on every thread; the map is the same for any thread count.
