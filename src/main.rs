@@ -33,7 +33,7 @@ const RENDER_EXAMPLES: &str = "Examples:
   prism render scenes/cornell-box.toml                        64 spp at 512x512, next to the scene
   prism render scenes/cornell-box.toml --spp 16 -o out/cbox   a quick look, into out/
   prism render scenes/cornell-box.toml --time 30s --adaptive  stop after 30 s (at most 64 spp); samples where needed
-  prism render scenes/prism-rainbow.toml --integrator sppm    a prism's rainbow on a wall, by photon mapping
+  prism render scenes/gem.toml --integrator sppm              a diamond's caustics, by photon mapping
   prism render scenes/cornell-box.toml --samples 0..64 -o out/part-a
                                                               one part of a render, for `prism merge`
   prism render scenes/sunset.toml --display 127.0.0.1:14158   watch it in tev while it renders

@@ -318,8 +318,20 @@ impl PathCaustics {
         let Some(sphere) = aim.sphere else {
             return;
         };
-        let [_, u_light, p0, p1] = sampler.next_4d();
+        let [u_lead, u_light, p0, p1] = sampler.next_4d();
         let [d0, d1, _, _] = sampler.next_4d();
+        // Led by one of the four at random: a photon that disperses keeps
+        // its lead alone, and each of the path's wavelengths must be one's
+        // lead as often (`PhotonMap::gather_matched`).
+        let lead = ((u_lead * 4.0) as usize).min(3);
+        let turn = |v: glam::Vec4| {
+            let v = v.to_array();
+            glam::Vec4::from_array(std::array::from_fn(|k| v[(k + lead) % 4]))
+        };
+        wl = SampledWavelengths {
+            lambda: turn(wl.lambda),
+            pdf: turn(wl.pdf),
+        };
         let start = light_path::start_aimed(
             scene,
             &aim.lights,

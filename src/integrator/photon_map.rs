@@ -11,7 +11,7 @@ use super::PathCounters;
 use crate::sampler::Sampler;
 
 use crate::material::{Bsdf, TransportMode};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// Photons traced by one task: small, so that an iteration of a few tens
 /// of thousands of photons still keeps 16 threads busy. The map does not
@@ -36,9 +36,6 @@ pub(super) struct Photon {
     /// Surfaces it met, this one included (2 or more: direct light is
     /// sampled at the visible point instead).
     pub depth: u32,
-    /// It lost its secondary wavelengths to dispersion (its hero's weight
-    /// makes up for them).
-    pub terminated: bool,
 }
 
 impl Photon {
@@ -57,7 +54,6 @@ impl Photon {
             lambda: v.wl.lambda,
             weight,
             depth: v.depth,
-            terminated: v.wl.secondary_terminated(),
         })
     }
 }
@@ -148,13 +144,14 @@ impl HashGrid {
 
 impl PhotonMap {
     /// Radiance towards `wo` reflected at `p` from the photons within the
-    /// radius, where photons and the camera path carry the same
-    /// wavelengths (`path_caustics`): a photon counts at each wavelength
-    /// the path still carries, by its flux there (its weight times the
-    /// density `start` drew the wavelengths with). A photon that lost its
-    /// secondaries to dispersion carries its hero four times over, which
-    /// makes up for the path's lost wavelengths, unless the camera path
-    /// lost them too and makes up for them itself.
+    /// radius, where photons carry the camera path's wavelengths, each
+    /// photon in its own order (`path_caustics`): a photon counts at each
+    /// wavelength the path still carries, by its flux there (its weight
+    /// times the density `start` drew the wavelengths with). A photon that
+    /// lost its secondaries to dispersion carries its hero four times over;
+    /// as photons lead with each of the four in turn, every wavelength of
+    /// the path gets its share, and a camera path that loses its own
+    /// secondaries later may weight its hero up as it does for any light.
     pub(super) fn gather_matched(
         &self,
         p: Vec3,
@@ -170,8 +167,6 @@ impl PhotonMap {
         let r2 = self.radius * self.radius;
         let live = wl.pdf.cmpgt(Vec4::ZERO);
         let flux_per_weight = Vec4::select(live, 4.0 * start.pdf, Vec4::ZERO);
-        let both_lost = flux_per_weight / N_WAVELENGTHS as f32;
-        let camera_lost = wl.secondary_terminated();
         let mut sum = SampledSpectrum::ZERO;
         let (buckets, n) = self.grid.buckets_near(p, self.radius);
         for &b in &buckets[..n] {
@@ -180,13 +175,14 @@ impl PhotonMap {
                 if photon.depth > max_depth || (photon.p - p).length_squared() > r2 {
                     continue;
                 }
-                let flux = photon.weight
-                    * if camera_lost && photon.terminated {
-                        both_lost
-                    } else {
-                        flux_per_weight
-                    };
-                sum += bsdf.f(wo, photon.wi, TransportMode::Radiance) * flux;
+                // The photon's lane k is the path's lane (k + lead) mod 4.
+                let lead = (0..4).find(|&a| start.lambda[a] == photon.lambda[0]);
+                let Some(lead) = lead else {
+                    continue;
+                };
+                let w = photon.weight.to_array();
+                let weight = Vec4::from_array(std::array::from_fn(|a| w[(a + 4 - lead) % 4]));
+                sum += bsdf.f(wo, photon.wi, TransportMode::Radiance) * (weight * flux_per_weight);
             }
         }
         sum * (1.0 / (self.emitted as f32 * std::f32::consts::PI * r2))
