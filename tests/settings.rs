@@ -186,9 +186,11 @@ fn every_integrator_refuses_the_keys_of_the_others() {
             }
         }
     }
-    // Every key but `strategy` (a name, not 1) moves.
+    // Every key but `strategy` (a name, not 1, tried once per other
+    // integrator) moves.
+    let strategy_tries = IntegratorKind::ALL.len() - 1;
     assert!(
-        checked >= 6 && moved_checked >= checked - 3,
+        checked >= 6 && moved_checked >= checked - strategy_tries,
         "{checked} keys checked, {moved_checked} moved"
     );
 }
