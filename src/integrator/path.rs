@@ -5,7 +5,7 @@
 
 use super::interface::{stack_towards, transmittance};
 use super::ior_stack::{Entry, IorStack};
-use super::walk::{self, Event, Flow, PathContext, Scatterer, Visitor, Walk};
+use super::walk::{self, Dispersion, Event, Flow, PathContext, Scatterer, Visitor, Walk};
 use super::{camera_ray, CommonParams, Configure, PixelSample, MAX_SPLIT};
 use super::{power_heuristic, PathCounters, Strategy};
 use crate::drive::pixels::PixelEstimator;
@@ -16,7 +16,7 @@ use crate::light::LightSource;
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 use serde::Deserialize;
 
 /// A surface a camera path reached, offered to `radiance_until`'s `stop`.
@@ -62,6 +62,9 @@ pub struct PathTracer {
     pub strategy: Strategy,
     /// Continuations per camera sample from its first surface.
     pub split: u32,
+    /// At the first smooth dispersive interface, follow each wavelength on
+    /// its own instead of the hero alone (`Gather::disperse`).
+    pub split_dispersion: bool,
 }
 
 impl Default for PathTracer {
@@ -71,6 +74,7 @@ impl Default for PathTracer {
             rr_depth: 3,
             strategy: Strategy::Mis,
             split: 1,
+            split_dispersion: true,
         }
     }
 }
@@ -84,6 +88,9 @@ pub struct PathParams {
     /// Continuations per camera sample from its first surface (default 1:
     /// no splitting).
     pub split: Option<u32>,
+    /// Follow each wavelength on its own past the first smooth dispersive
+    /// interface (default true).
+    pub split_dispersion: Option<bool>,
 }
 
 impl Configure for PathTracer {
@@ -102,6 +109,7 @@ impl Configure for PathTracer {
             rr_depth: common.rr_depth.unwrap_or(d.rr_depth),
             strategy: own.strategy.unwrap_or(d.strategy),
             split,
+            split_dispersion: own.split_dispersion.unwrap_or(d.split_dispersion),
         })
     }
 }
@@ -363,6 +371,8 @@ struct Gather<'t, 's> {
     caustics: Option<&'s dyn Caustics>,
     met_diffuse: bool,
     in_caustic: bool,
+    /// The path may still split at a dispersive interface.
+    disperses: bool,
 }
 
 impl<'t, 's> Gather<'t, 's> {
@@ -379,6 +389,7 @@ impl<'t, 's> Gather<'t, 's> {
             caustics: None,
             met_diffuse: false,
             in_caustic: false,
+            disperses: tracer.split_dispersion,
         }
     }
 
@@ -491,6 +502,35 @@ impl Visitor for Gather<'_, '_> {
         self.prev_bsdf_pdf = pdf;
     }
 
+    fn splits_dispersion(&self) -> bool {
+        self.disperses
+    }
+
+    fn disperse(&mut self, ctx: &mut PathContext, walk: &Walk, at: &Dispersion) {
+        // Each wavelength goes on alone, with a branch of the sampler, and
+        // brings back its own light: the sample keeps all four where the
+        // hero alone would carry its one four times over (colour grain
+        // through glass). Branch k's light is wavelength k's.
+        let arrived = *ctx.wl;
+        let mut l = SampledSpectrum::ZERO;
+        for k in 0..N_WAVELENGTHS {
+            let mut branch = walk.clone();
+            let mut wl_k = arrived;
+            let mut sampler_k = ctx.sampler.branch(k as u32, N_WAVELENGTHS as u32);
+            let mut ctx_k = PathContext {
+                scene: ctx.scene,
+                wl: &mut wl_k,
+                sampler: &mut sampler_k,
+                counters: &mut *ctx.counters,
+            };
+            let mut visitor = self.continued(1);
+            visitor.disperses = false;
+            at.follow(&mut ctx_k, &mut branch, k, &mut visitor);
+            l[k] = visitor.l.x;
+        }
+        self.l += l;
+    }
+
     fn escaped(&mut self, ctx: &mut PathContext, walk: &Walk) {
         if self.in_caustic {
             return;
@@ -508,7 +548,21 @@ impl Visitor for Gather<'_, '_> {
     }
 }
 
-impl Gather<'_, '_> {
+impl<'t, 's> Gather<'t, 's> {
+    /// A visitor for a branch of this path: its state, nothing gathered
+    /// yet, no `stop`, splitting `split` ways.
+    fn continued(&self, split: u32) -> Gather<'t, 's> {
+        Gather {
+            specular: self.specular,
+            prev_bsdf_pdf: self.prev_bsdf_pdf,
+            caustics: self.caustics,
+            met_diffuse: self.met_diffuse,
+            in_caustic: self.in_caustic,
+            disperses: self.disperses,
+            ..Gather::new(self.tracer, None, split)
+        }
+    }
+
     /// The `split` continuations of the path from the surface of `event`,
     /// each with its own copy of the path, wavelengths and a branch of the
     /// sampler; their mean, each branch's light per its wavelengths' density.
@@ -524,14 +578,7 @@ impl Gather<'_, '_> {
                 sampler: &mut sampler_k,
                 counters: &mut *ctx.counters,
             };
-            let mut visitor = Gather {
-                specular: self.specular,
-                prev_bsdf_pdf: self.prev_bsdf_pdf,
-                caustics: self.caustics,
-                met_diffuse: self.met_diffuse,
-                in_caustic: self.in_caustic,
-                ..Gather::new(self.tracer, None, 1)
-            };
+            let mut visitor = self.continued(1);
             let u = ctx_k.sampler.next_4d();
             if walk::scatter_from_surface(&mut ctx_k, &mut branch, event, u, &mut visitor) {
                 walk::walk(&mut ctx_k, &mut branch, &mut visitor);

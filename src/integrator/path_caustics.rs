@@ -46,6 +46,9 @@ use serde::Deserialize;
 pub struct PathCaustics {
     pub max_depth: u32,
     pub rr_depth: u32,
+    /// Camera paths follow each wavelength on its own past the first
+    /// smooth dispersive interface (`PathTracer::split_dispersion`).
+    pub split_dispersion: bool,
     /// The photon side: its counts, radii and kernels.
     photons: Sppm,
     /// Per scene (keyed by `Scene::id`): where photons are aimed.
@@ -79,12 +82,17 @@ pub struct CausticParams {
     pub radius: Option<f32>,
     /// Radius reduction exponent α in (0, 1] (default 2/3).
     pub alpha: Option<f32>,
+    /// As the path tracer's (default true).
+    pub split_dispersion: Option<bool>,
 }
 
 impl Configure for PathCaustics {
     type Params = CausticParams;
 
     fn configure(common: &CommonParams, spec: CausticParams) -> Result<Self, String> {
+        let split_dispersion = spec
+            .split_dispersion
+            .unwrap_or(PathTracer::default().split_dispersion);
         let spec = SppmParams {
             photons: spec.photons,
             radius: spec.radius,
@@ -95,6 +103,7 @@ impl Configure for PathCaustics {
         Ok(Self {
             max_depth: photons.max_depth,
             rr_depth: photons.rr_depth,
+            split_dispersion,
             photons,
             aim: Arc::default(),
         })
@@ -110,7 +119,7 @@ impl Default for PathCaustics {
 
 impl PartialEq for PathCaustics {
     fn eq(&self, other: &Self) -> bool {
-        self.photons == other.photons
+        self.photons == other.photons && self.split_dispersion == other.split_dispersion
     }
 }
 
@@ -180,10 +189,12 @@ impl PixelEstimator for PathCaustics {
         // narrow as a dispersed caustic needs, leaves colour grain).
         let [dx, dy, _, _] = sampler.next_4d();
         let mut wl = caustics.wl;
+        let seen = wl.lambda;
         let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
         let tracer = PathTracer {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
+            split_dispersion: self.split_dispersion,
             ..PathTracer::default()
         };
         let mut ctx = PathContext {
@@ -193,6 +204,9 @@ impl PixelEstimator for PathCaustics {
             counters,
         };
         let l = tracer.radiance_with(&mut ctx, ray, caustics);
+        // Fluorescence may have moved the wavelengths the path carries;
+        // the film bins the light at those the camera saw.
+        wl.lambda = seen;
         PixelSample { l, wl }
     }
 }
@@ -323,15 +337,7 @@ impl PathCaustics {
         // Led by one of the four at random: a photon that disperses keeps
         // its lead alone, and each of the path's wavelengths must be one's
         // lead as often (`PhotonMap::gather_matched`).
-        let lead = ((u_lead * 4.0) as usize).min(3);
-        let turn = |v: glam::Vec4| {
-            let v = v.to_array();
-            glam::Vec4::from_array(std::array::from_fn(|k| v[(k + lead) % 4]))
-        };
-        wl = SampledWavelengths {
-            lambda: turn(wl.lambda),
-            pdf: turn(wl.pdf),
-        };
+        wl = wl.led_by(((u_lead * 4.0) as usize).min(3));
         let start = light_path::start_aimed(
             scene,
             &aim.lights,

@@ -11,7 +11,7 @@ use super::PathCounters;
 use crate::sampler::Sampler;
 
 use crate::material::{Bsdf, TransportMode};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{lanes_led_by, SampledSpectrum, SampledWavelengths};
 
 /// Photons traced by one task: small, so that an iteration of a few tens
 /// of thousands of photons still keeps 16 threads busy. The map does not
@@ -152,6 +152,8 @@ impl PhotonMap {
     /// as photons lead with each of the four in turn, every wavelength of
     /// the path gets its share, and a camera path that loses its own
     /// secondaries later may weight its hero up as it does for any light.
+    /// The camera path may lead with any of the four too (one that follows
+    /// a wavelength alone after dispersing).
     pub(super) fn gather_matched(
         &self,
         p: Vec3,
@@ -164,9 +166,14 @@ impl PhotonMap {
         if self.photons.is_empty() || self.radius <= 0.0 {
             return SampledSpectrum::ZERO;
         }
+        // The path's lane a is lane (a + path_lead) mod 4 of `start`.
+        let Some(path_lead) = (0..4).find(|&a| start.lambda[a] == wl.lambda[0]) else {
+            return SampledSpectrum::ZERO;
+        };
         let r2 = self.radius * self.radius;
         let live = wl.pdf.cmpgt(Vec4::ZERO);
-        let flux_per_weight = Vec4::select(live, 4.0 * start.pdf, Vec4::ZERO);
+        let start_pdf = lanes_led_by(start.pdf, path_lead);
+        let flux_per_weight = Vec4::select(live, 4.0 * start_pdf, Vec4::ZERO);
         let mut sum = SampledSpectrum::ZERO;
         let (buckets, n) = self.grid.buckets_near(p, self.radius);
         for &b in &buckets[..n] {
@@ -175,13 +182,13 @@ impl PhotonMap {
                 if photon.depth > max_depth || (photon.p - p).length_squared() > r2 {
                     continue;
                 }
-                // The photon's lane k is the path's lane (k + lead) mod 4.
+                // The photon's lane k is lane (k + lead) mod 4 of `start`,
+                // the path's lane (k + lead − path_lead) mod 4.
                 let lead = (0..4).find(|&a| start.lambda[a] == photon.lambda[0]);
                 let Some(lead) = lead else {
                     continue;
                 };
-                let w = photon.weight.to_array();
-                let weight = Vec4::from_array(std::array::from_fn(|a| w[(a + 4 - lead) % 4]));
+                let weight = lanes_led_by(photon.weight, (4 + path_lead - lead) % 4);
                 sum += bsdf.f(wo, photon.wi, TransportMode::Radiance) * (weight * flux_per_weight);
             }
         }
@@ -284,5 +291,62 @@ impl PhotonMap {
         }
         let kernel = 1.0 / (self.emitted as f32 * std::f32::consts::PI * r2 * 2.0 * h);
         sum * kernel
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Frame;
+    use crate::material::{DiffuseLobe, Lobe};
+
+    /// One photon per lead, each carrying its lead wavelength alone (it
+    /// dispersed), gathered by camera paths that lead with each of the
+    /// four: every lane of the path gets the photon of its own wavelength.
+    #[test]
+    fn gather_matched_counts_each_photon_at_its_own_wavelength() {
+        let start = SampledWavelengths {
+            lambda: Vec4::new(420.0, 500.0, 580.0, 660.0),
+            pdf: Vec4::new(0.5, 1.0, 2.0, 4.0) / 470.0,
+        };
+        // The photon led by lane j carries 10^j (distinct per lane).
+        let photons: Vec<Photon> = (0..4)
+            .map(|j| Photon {
+                p: Vec3::ZERO,
+                wi: Vec3::Z,
+                lambda: start.led_by(j).lambda,
+                weight: Vec4::new(10f32.powi(j as i32), 0.0, 0.0, 0.0),
+                depth: 2,
+            })
+            .collect();
+        let map = PhotonMap::new(photons, 1, 0.1, 0.0);
+        let n = Vec3::Z;
+        let bsdf = Bsdf::new(
+            Frame::from_normal(n),
+            n,
+            Lobe::Diffuse(DiffuseLobe::new(Vec4::ONE)),
+            n,
+        );
+        let f = std::f32::consts::FRAC_1_PI;
+        let per_photon = f / (std::f32::consts::PI * 0.01);
+        for k in 0..4 {
+            let mut wl = start.led_by(k);
+            let all = map.gather_matched(Vec3::ZERO, n, &bsdf, &wl, &start, 16);
+            for a in 0..4 {
+                let lane = (a + k) % 4; // of `start`
+                let want = 10f32.powi(lane as i32) * 4.0 * start.pdf[lane] * per_photon;
+                assert!(
+                    (all[a] - want).abs() <= 1e-4 * want,
+                    "lead {k}, lane {a}: {all}"
+                );
+            }
+            // A path that kept its hero alone gathers at it alone.
+            wl.terminate_secondary();
+            let hero = map.gather_matched(Vec3::ZERO, n, &bsdf, &wl, &start, 16);
+            let want = 10f32.powi(k as i32) * 4.0 * start.pdf[k] * per_photon;
+            assert!(
+                (hero.x - want).abs() <= 1e-4 * want && (hero.y, hero.z, hero.w) == (0.0, 0.0, 0.0)
+            );
+        }
     }
 }

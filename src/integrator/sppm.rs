@@ -331,6 +331,8 @@ impl Sppm {
             rr_depth: self.rr_depth,
             strategy: Strategy::Mis,
             split: 1,
+            // `stop` ends the path at its visible point: no branches.
+            split_dispersion: false,
         };
         // At the visible point the path ends: light sampling alone finds
         // the direct light (no BSDF sample follows to share it with).

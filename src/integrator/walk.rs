@@ -23,7 +23,7 @@ use crate::material::{Bsdf, TransportMode};
 use crate::medium::HenyeyGreenstein;
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{lanes_led_by, SampledSpectrum, SampledWavelengths};
 
 /// What every step of a path uses: the scene, the path's wavelengths (a
 /// dispersive interface may end the secondaries), its sampler and the
@@ -141,6 +141,47 @@ pub trait Visitor {
 
     /// The path left the scene.
     fn escaped(&mut self, _ctx: &mut PathContext, _walk: &Walk) {}
+
+    /// Whether a surface that would end the secondary wavelengths (a
+    /// smooth dispersive interface) hands the path to `disperse` instead.
+    fn splits_dispersion(&self) -> bool {
+        false
+    }
+
+    /// At such a surface (`walk.depth` counts it; `ctx.wl` as it arrived,
+    /// every wavelength live): the visitor continues the path itself, once
+    /// per wavelength (`Dispersion::follow`); the walk ends here.
+    fn disperse(&mut self, _ctx: &mut PathContext, _walk: &Walk, _at: &Dispersion) {}
+}
+
+/// A surface where the path's wavelengths part: what following one of
+/// them from it needs.
+pub struct Dispersion<'a> {
+    pub hit: &'a SurfaceHit,
+    /// η per wavelength, in the order the path arrived with.
+    pub eta: SampledSpectrum,
+    pub medium: Option<(Entry, bool)>,
+}
+
+impl Dispersion<'_> {
+    /// Follows wavelength `k` of `wl` (as the path arrived) alone from this
+    /// surface: `walk` and `wl` become the path led by it, which scatters
+    /// here and walks on with `visitor` until it ends.
+    pub fn follow(
+        &self,
+        ctx: &mut PathContext,
+        walk: &mut Walk,
+        k: usize,
+        visitor: &mut impl Visitor,
+    ) {
+        *ctx.wl = ctx.wl.led_by(k);
+        walk.flight.beta = lanes_led_by(walk.flight.beta, k);
+        let eta = lanes_led_by(self.eta, k);
+        let bsdf = bsdf_at(ctx.scene, self.hit, -walk.ray.dir, ctx.wl, eta);
+        if at_surface(ctx, walk, self.hit, &bsdf, self.medium, visitor) {
+            self::walk(ctx, walk, visitor);
+        }
+    }
 }
 
 /// Walks the path from `walk` until it escapes, is absorbed, loses Russian
@@ -164,31 +205,25 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
                     break;
                 }
                 walk.depth += 1;
-                let wo = -walk.ray.dir;
-                let bsdf = bsdf_at(ctx.scene, &hit, wo, ctx.wl, eta);
-                let material = &ctx.scene.materials[hit.material as usize];
-                if material.is_fluorescent() {
-                    // The light this bounce carries comes from where it
-                    // was absorbed: light samples and the rest of the path
-                    // see those wavelengths. (Only camera paths meet
-                    // fluorescence: `Integrator::handles_fluorescence`.)
-                    debug_assert!(visitor.mode() == TransportMode::Radiance);
-                    let u = ctx.sampler.next_4d();
-                    walk.flight.beta *= material.fluoresce(hit.uv, ctx.wl, u);
-                }
-                let event = Event {
-                    at: Scatterer::Surface {
+                let arrived = *ctx.wl;
+                let bsdf = bsdf_at(ctx.scene, &hit, -walk.ray.dir, ctx.wl, eta);
+                // Not after a chromatic medium's spectral MIS (r ≠ 1): a
+                // wavelength the hero drew no flights for cannot go alone.
+                if visitor.splits_dispersion()
+                    && ctx.wl.secondary_terminated()
+                    && !arrived.secondary_terminated()
+                    && walk.flight.r == SampledSpectrum::ONE
+                {
+                    *ctx.wl = arrived;
+                    let at = Dispersion {
                         hit: &hit,
-                        bsdf: &bsdf,
+                        eta,
                         medium,
-                    },
-                    wo,
-                };
-                if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+                    };
+                    visitor.disperse(ctx, walk, &at);
                     break;
                 }
-                let u = visitor.numbers(ctx, walk);
-                if !scatter_from_surface(ctx, walk, &event, u, visitor) {
+                if !at_surface(ctx, walk, &hit, &bsdf, medium, visitor) {
                     break;
                 }
             }
@@ -224,6 +259,38 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
             Next::Lost => break,
         }
     }
+}
+
+/// At a surface `hit` with its `bsdf`: fluorescence, the visitor, and the
+/// BSDF sample that continues the walk; whether it goes on.
+#[inline(always)]
+fn at_surface(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    hit: &SurfaceHit,
+    bsdf: &Bsdf,
+    medium: Option<(Entry, bool)>,
+    visitor: &mut impl Visitor,
+) -> bool {
+    let material = &ctx.scene.materials[hit.material as usize];
+    if material.is_fluorescent() {
+        // The light this bounce carries comes from where it was absorbed:
+        // light samples and the rest of the path see those wavelengths.
+        // (Only camera paths meet fluorescence:
+        // `Integrator::handles_fluorescence`.)
+        debug_assert!(visitor.mode() == TransportMode::Radiance);
+        let u = ctx.sampler.next_4d();
+        walk.flight.beta *= material.fluoresce(hit.uv, ctx.wl, u);
+    }
+    let event = Event {
+        at: Scatterer::Surface { hit, bsdf, medium },
+        wo: -walk.ray.dir,
+    };
+    if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+        return false;
+    }
+    let u = visitor.numbers(ctx, walk);
+    scatter_from_surface(ctx, walk, &event, u, visitor)
 }
 
 /// The BSDF sample that continues `walk` from the surface `event` with the

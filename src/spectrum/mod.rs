@@ -11,8 +11,8 @@ mod wavelengths;
 
 pub use spectra::{RgbSpectrum, Spectrum, TabulatedSpectrum};
 pub use wavelengths::{
-    sample_visible_wavelength, visible_wavelength_pdf, SampledSpectrum, SampledWavelengths,
-    WavelengthDistribution, N_WAVELENGTHS,
+    lanes_led_by, sample_visible_wavelength, visible_wavelength_pdf, SampledSpectrum,
+    SampledWavelengths, WavelengthDistribution, N_WAVELENGTHS,
 };
 
 /// Shortest wavelength a path may carry, in nanometres.

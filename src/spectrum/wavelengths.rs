@@ -54,6 +54,16 @@ impl SampledWavelengths {
         }
     }
 
+    /// The same four wavelengths led by lane `k` (lane j of the result is
+    /// lane (j + k) mod 4 of these): what a path that follows wavelength
+    /// `k` alone from here on carries (`lanes_led_by` turns its spectra).
+    pub fn led_by(&self, k: usize) -> Self {
+        Self {
+            lambda: lanes_led_by(self.lambda, k),
+            pdf: lanes_led_by(self.pdf, k),
+        }
+    }
+
     /// Keeps only the hero wavelength (for paths through a dispersive
     /// interface, which the secondaries cannot follow).
     pub fn terminate_secondary(&mut self) {
@@ -66,6 +76,14 @@ impl SampledWavelengths {
     pub fn secondary_terminated(&self) -> bool {
         self.pdf.y == 0.0 && self.pdf.z == 0.0 && self.pdf.w == 0.0
     }
+}
+
+/// A spectrum's lanes led by lane `k`: lane j of the result is lane
+/// (j + k) mod 4 of `v` (see [`SampledWavelengths::led_by`]).
+#[inline]
+pub fn lanes_led_by(v: SampledSpectrum, k: usize) -> SampledSpectrum {
+    let a = v.to_array();
+    SampledSpectrum::from_array(std::array::from_fn(|j| a[(j + k) % N_WAVELENGTHS]))
 }
 
 /// Bins of the weights a [`WavelengthDistribution`] is built from: 1 nm
