@@ -205,15 +205,20 @@ pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) 
                     break;
                 }
                 walk.depth += 1;
-                let arrived = *ctx.wl;
+                // Only glass of a dispersive index may end the secondaries.
+                let arrived = (visitor.splits_dispersion()
+                    && ctx.scene.materials[hit.material as usize]
+                        .ior()
+                        .is_some_and(|ior| ior.is_dispersive()))
+                .then_some(*ctx.wl);
                 let bsdf = bsdf_at(ctx.scene, &hit, -walk.ray.dir, ctx.wl, eta);
                 // Not after a chromatic medium's spectral MIS (r ≠ 1): a
                 // wavelength the hero drew no flights for cannot go alone.
-                if visitor.splits_dispersion()
-                    && ctx.wl.secondary_terminated()
-                    && !arrived.secondary_terminated()
-                    && walk.flight.r == SampledSpectrum::ONE
-                {
+                if let Some(arrived) = arrived.filter(|a| {
+                    ctx.wl.secondary_terminated()
+                        && !a.secondary_terminated()
+                        && walk.flight.r == SampledSpectrum::ONE
+                }) {
                     *ctx.wl = arrived;
                     let at = Dispersion {
                         hit: &hit,
