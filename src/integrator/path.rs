@@ -511,22 +511,14 @@ impl Visitor for Gather<'_, '_> {
         // brings back its own light: the sample keeps all four where the
         // hero alone would carry its one four times over (colour grain
         // through glass). Branch k's light is wavelength k's.
-        let arrived = *ctx.wl;
         let mut l = SampledSpectrum::ZERO;
         for k in 0..N_WAVELENGTHS {
-            let mut branch = walk.clone();
-            let mut wl_k = arrived;
-            let mut sampler_k = ctx.sampler.branch(k as u32, N_WAVELENGTHS as u32);
-            let mut ctx_k = PathContext {
-                scene: ctx.scene,
-                wl: &mut wl_k,
-                sampler: &mut sampler_k,
-                counters: &mut *ctx.counters,
-            };
-            let mut visitor = self.continued(1);
-            visitor.disperses = false;
-            at.follow(&mut ctx_k, &mut branch, k, &mut visitor);
-            l[k] = visitor.l.x;
+            let n = N_WAVELENGTHS as u32;
+            let (l_k, _) = self.branch(ctx, walk, k as u32, n, |ctx_k, branch, visitor| {
+                visitor.disperses = false;
+                at.follow(ctx_k, branch, k, visitor);
+            });
+            l[k] = l_k.x;
         }
         self.l += l;
     }
@@ -549,18 +541,39 @@ impl Visitor for Gather<'_, '_> {
 }
 
 impl<'t, 's> Gather<'t, 's> {
-    /// A visitor for a branch of this path: its state, nothing gathered
-    /// yet, no `stop`, splitting `split` ways.
-    fn continued(&self, split: u32) -> Gather<'t, 's> {
-        Gather {
+    /// Branch `k` of `n` of this path: its own copy of the walk and of the
+    /// wavelengths, branch `k` of the sampler and a visitor with this one's
+    /// state, which `go` takes on from here. The branch's light,
+    /// and the wavelengths it ended with.
+    fn branch(
+        &self,
+        ctx: &mut PathContext,
+        walk: &Walk,
+        k: u32,
+        n: u32,
+        go: impl FnOnce(&mut PathContext, &mut Walk, &mut Gather<'t, 's>),
+    ) -> (SampledSpectrum, SampledWavelengths) {
+        let mut branch = walk.clone();
+        let mut wl_k = *ctx.wl;
+        let mut sampler_k = ctx.sampler.branch(k, n);
+        let mut ctx_k = PathContext {
+            scene: ctx.scene,
+            wl: &mut wl_k,
+            sampler: &mut sampler_k,
+            counters: &mut *ctx.counters,
+        };
+        // This path's state, nothing gathered yet, no `stop`, no splitting.
+        let mut visitor = Gather {
             specular: self.specular,
             prev_bsdf_pdf: self.prev_bsdf_pdf,
             caustics: self.caustics,
             met_diffuse: self.met_diffuse,
             in_caustic: self.in_caustic,
             disperses: self.disperses,
-            ..Gather::new(self.tracer, None, split)
-        }
+            ..Gather::new(self.tracer, None, 1)
+        };
+        go(&mut ctx_k, &mut branch, &mut visitor);
+        (visitor.l, wl_k)
     }
 
     /// The `split` continuations of the path from the surface of `event`,
@@ -569,23 +582,14 @@ impl<'t, 's> Gather<'t, 's> {
     fn branches(&self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> SampledSpectrum {
         let mut per_density = SampledSpectrum::ZERO;
         for k in 0..self.split {
-            let mut branch = walk.clone();
-            let mut wl_k = *ctx.wl;
-            let mut sampler_k = ctx.sampler.branch(k, self.split);
-            let mut ctx_k = PathContext {
-                scene: ctx.scene,
-                wl: &mut wl_k,
-                sampler: &mut sampler_k,
-                counters: &mut *ctx.counters,
-            };
-            let mut visitor = self.continued(1);
-            let u = ctx_k.sampler.next_4d();
-            if walk::scatter_from_surface(&mut ctx_k, &mut branch, event, u, &mut visitor) {
-                walk::walk(&mut ctx_k, &mut branch, &mut visitor);
-            }
+            let (l_k, wl_k) = self.branch(ctx, walk, k, self.split, |ctx_k, branch, visitor| {
+                let u = ctx_k.sampler.next_4d();
+                if walk::scatter_from_surface(ctx_k, branch, event, u, visitor) {
+                    walk::walk(ctx_k, branch, visitor);
+                }
+            });
             let live = wl_k.pdf.cmpgt(SampledSpectrum::ZERO);
-            per_density +=
-                SampledSpectrum::select(live, visitor.l / wl_k.pdf, SampledSpectrum::ZERO);
+            per_density += SampledSpectrum::select(live, l_k / wl_k.pdf, SampledSpectrum::ZERO);
         }
         per_density * ctx.wl.pdf / self.split as f32
     }
