@@ -11,6 +11,7 @@ use anyhow::{bail, Context, Result};
 use glam::Vec3;
 
 use crate::film::output::{read_rgb_exr, write_rgb_exr};
+use crate::film::Sampling;
 use crate::integrator::{Integrator, IntegratorKind, IntegratorSpec};
 use crate::load::Loaded;
 use crate::render::{render, RenderOptions, RenderSettings};
@@ -72,8 +73,9 @@ pub struct BenchOptions {
     pub integrators: Vec<IntegratorKind>,
     /// The path tracer's splitting instead of the scene file's.
     pub split: Option<u32>,
-    /// Adaptive sampling in the rungs (`RenderOptions::adaptive`).
-    pub adaptive: bool,
+    /// How the rungs sample; None: as `prism render` would
+    /// (`RenderSettings::adaptive`).
+    pub sampling: Option<Sampling>,
 }
 
 /// The reference image: the given one, a cached render of this scene file
@@ -136,7 +138,9 @@ pub fn run_ladder(
             &RenderOptions {
                 seed: i as u64 + 1,
                 threads: opts.threads,
-                adaptive: opts.adaptive,
+                adaptive: opts
+                    .sampling
+                    .map_or(settings.adaptive(), |s| s == Sampling::Adaptive),
                 ..RenderOptions::with_spp(&settings.film, spp)
             },
         )?;

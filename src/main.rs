@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
-use prism::film::{Gamut, Tonemap};
+use prism::film::{Gamut, Sampling, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
 use prism::job::{
     describe, describe_spectrum, merge_files, render_files, Interrupts, MergeJob, Reaction,
@@ -134,9 +134,14 @@ enum Command {
         /// Spend the samples (--spp on average per pixel) where a pilot
         /// (the first sixteenth, part of the image) finds the relative error
         /// high; unbiased, as a pixel's count depends on its neighbours'
-        /// pilot samples, never its own. Path tracer only.
-        #[arg(long, conflicts_with = "samples")]
+        /// pilot samples, never its own. The default of `path` and
+        /// `path_caustics` (overrides film.sampling), except for a part of a
+        /// render (--samples, --tile) or an error target, which say so.
+        #[arg(long, conflicts_with_all = ["samples", "uniform"])]
         adaptive: bool,
+        /// Take the same samples in every pixel (overrides film.sampling).
+        #[arg(long)]
+        uniform: bool,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -201,9 +206,14 @@ enum Command {
         split: Option<u32>,
         /// Adaptive sampling in every rung (not the reference): each
         /// rung's samples per pixel on average, spread where a pilot of its
-        /// first samples finds the relative error high.
-        #[arg(long)]
+        /// first samples finds the relative error high. Rungs sample as
+        /// `prism render` does by default (film.sampling, else adaptive for
+        /// `path` and `path_caustics`).
+        #[arg(long, conflicts_with = "uniform")]
         adaptive: bool,
+        /// The same samples in every pixel of every rung.
+        #[arg(long)]
+        uniform: bool,
     },
     /// Describe an OpenEXR file: size, channels, spectral layout, statistics.
     Info {
@@ -236,6 +246,15 @@ const SPECTRUM_EXAMPLES: &str = "Examples:
   prism spectrum '{ daylight = 5500 }'
   prism spectrum lamps.csv --column 3
   prism spectrum spectra/colorchecker/13_blue.csv --under D50 --observer cie1964-10";
+
+/// `--adaptive` or `--uniform` (clap refuses both); None: the default.
+fn sampling_flag(adaptive: bool, uniform: bool) -> Option<Sampling> {
+    match (adaptive, uniform) {
+        (true, _) => Some(Sampling::Adaptive),
+        (_, true) => Some(Sampling::Uniform),
+        _ => None,
+    }
+}
 
 fn parse_samples(s: &str) -> Result<std::ops::Range<u32>, String> {
     prism::merge::parse_sample_range(s)
@@ -416,6 +435,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             preview_every,
             display,
             adaptive,
+            uniform,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -446,7 +466,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 log_every: log_every.max(std::time::Duration::from_millis(100)),
                 preview_every,
                 display,
-                adaptive,
+                sampling: sampling_flag(adaptive, uniform),
             };
             let outcome = render_files(&job)?;
             Ok(if outcome.interrupted {
@@ -478,6 +498,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             integrator,
             split,
             adaptive,
+            uniform,
         } => {
             let opts = prism::bench::BenchOptions {
                 ladder: spp,
@@ -487,7 +508,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out_dir: out,
                 integrators: integrator,
                 split,
-                adaptive,
+                sampling: sampling_flag(adaptive, uniform),
             };
             prism::bench::run(&scene, resolution, &opts)?;
             Ok(ExitCode::SUCCESS)

@@ -18,6 +18,8 @@ fov = 40
 [film]
 resolution = [32, 32]
 spp = 16
+# Every pixel the same samples: the tolerances below are for 16.
+sampling = "uniform"
 aovs = ["albedo", "normal", "depth", "sample_count"]
 [materials.floor]
 type = "diffuse"

@@ -149,7 +149,7 @@ fn sigterm_writes_the_samples_done_so_far() {
     // Far more samples than a second allows.
     std::fs::write(&scene, SCENE.replace("spp = 4", "spp = 1000000")).unwrap();
     let child = prism()
-        .args(["render", "--threads", "2", "-q"])
+        .args(["render", "--threads", "2", "-q", "--uniform"])
         .arg(&scene)
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -270,6 +270,7 @@ fn resource_failures_and_command_line_values_are_errors_not_panics() {
                 "render",
                 "ok.toml",
                 "-q",
+                "--uniform",
                 "--spp",
                 "1",
                 "--resolution",

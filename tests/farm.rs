@@ -38,7 +38,15 @@ fn small_scene(dir: &Path) -> String {
 fn assert_matches_single(dir: &Path, scene: &str, merged: &Path, spp: u32) {
     let single = dir.join("single");
     run(Command::new(env!("CARGO_BIN_EXE_prism"))
-        .args(["render", scene, "-q", "--spp", &spp.to_string(), "-o"])
+        .args([
+            "render",
+            scene,
+            "-q",
+            "--uniform",
+            "--spp",
+            &spp.to_string(),
+            "-o",
+        ])
         .arg(&single));
     let a = spectral_exr::read(&single.with_extension("spectral.exr")).unwrap();
     let b = spectral_exr::read(&merged.with_extension("spectral.exr")).unwrap();

@@ -568,6 +568,7 @@ proptest! {
             threads: Some(1),
             progress: false,
             samples: start..end,
+            adaptive: false,
             ..scene.settings.options()
         };
         let (film, stats) = prism::render::render(&scene.scene, &scene.settings, &options).unwrap();

@@ -74,7 +74,8 @@ fn max_relative_difference(a: &SpectralImage, b: &SpectralImage) -> f64 {
 #[test]
 fn merged_sample_ranges_and_tiles_equal_the_single_render() {
     let dir = tempfile::tempdir().unwrap();
-    let single = spectral_exr::read(&render(dir.path(), "single", &["--spp", "8"])).unwrap();
+    let single =
+        spectral_exr::read(&render(dir.path(), "single", &["--spp", "8", "--uniform"])).unwrap();
 
     let parts = [
         render(dir.path(), "a", &["--samples", "0..3"]),
@@ -254,7 +255,7 @@ fn merged_parts_keep_their_colour_space_and_display() {
     .unwrap();
     let scene = scene.to_str().unwrap();
     let stem = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    ok(&["render", scene, "-q", "-o", &stem("whole")]);
+    ok(&["render", scene, "-q", "--uniform", "-o", &stem("whole")]);
     for (name, range) in [("a", "0..7"), ("b", "7..16")] {
         ok(&["render", scene, "-q", "-o", &stem(name), "--samples", range]);
     }

@@ -416,6 +416,7 @@ fn sample_ranges_at_the_top_of_u32_finish() {
         &RenderOptions {
             samples: u32::MAX - 40..u32::MAX,
             threads: Some(1),
+            adaptive: false,
             ..scene.settings.options()
         },
     )

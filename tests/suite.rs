@@ -32,6 +32,7 @@ mod medium_boundary;
 mod merge;
 mod path_caustics;
 mod progressive;
+mod sampling;
 mod scene_errors;
 mod settings;
 mod shapes;

@@ -198,8 +198,8 @@ def run_prism(args, out, ladder):
     ]
     if args.split:
         cmd += ["--split", str(args.split)]
-    if args.adaptive:
-        cmd += ["--adaptive"]
+    if args.uniform:
+        cmd += ["--uniform"]
     subprocess.run(cmd, check=True)
     return list(csv.DictReader(open(out / "prism.csv")))
 
@@ -288,7 +288,8 @@ def main():
                     help="Mitsuba variants, comma-separated (scalar_spectral, llvm_ad_spectral)")
     ap.add_argument("--prism", help="the prism binary (default: target/release/prism, built if missing)")
     ap.add_argument("--split", type=int, help="prism's path splitting (integrator.split) for the ladder")
-    ap.add_argument("--adaptive", action="store_true", help="prism's adaptive sampling in the ladder's rungs")
+    ap.add_argument("--uniform", action="store_true",
+                    help="the same samples in every pixel of prism's rungs (default: as `prism render`, adaptive for the path tracer)")
     args = ap.parse_args()
     global PRISM
     PRISM = args.prism

@@ -380,7 +380,7 @@ def render(
     time: Optional[float] = None,
     target_error: Optional[float] = None,
     samples: Union[range, Tuple[int, int], None] = None,
-    adaptive: bool = False,
+    adaptive: Optional[bool] = None,
     progress: Union[bool, Callable[[float, dict], Any]] = True,
 ) -> "Image":
     """Renders a scene and returns the `Image`.
@@ -393,7 +393,11 @@ def render(
     - ``seed``, ``threads`` (default: every core).
     - ``time``: stop after the pass during which this many seconds passed;
       ``target_error``: stop once the estimated relative MSE is below it.
-    - ``adaptive``: spend the samples where a pilot finds the error high.
+    - ``adaptive``: spend the samples where a pilot finds the error high
+      (True), or the same in every pixel (False). Default: the scene's
+      ``film.sampling``, else adaptive for ``path`` and ``path_caustics``,
+      except with ``samples`` (a part of a render) or ``target_error``,
+      which sample uniformly and warn (``UserWarning``) that they do.
     - ``progress``: True (a bar on stderr), False, or a callable
       ``progress(fraction, info)`` with info's ``done``, ``total``,
       ``elapsed`` (seconds) and ``rate`` (samples a second).

@@ -67,7 +67,7 @@ def render(
     threads: Optional[int] = None,
     time: Optional[float] = None,
     target_error: Optional[float] = None,
-    adaptive: bool = False,
+    adaptive: Optional[bool] = None,
     progress: Optional[Callable[[int, int, float], Any]] = None,
 ) -> NativeImage: ...
 def spectrum_values(

@@ -12,7 +12,7 @@ use pyo3::types::PyDict;
 use prism::film::{Gamut, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
 use prism::load::{Loaded, Overrides};
-use prism::render::ProgressCounts;
+use prism::render::{uniform_instead, ProgressCounts};
 
 use crate::image::NativeImage;
 use crate::{RenderError, SceneError};
@@ -261,7 +261,7 @@ const POLL: Duration = Duration::from_millis(100);
 /// pass under way: the image comes back, marked interrupted) and to call
 /// `progress(done, total, elapsed_seconds)`.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, samples=None, seed=None, threads=None, time=None, target_error=None, adaptive=false, progress=None))]
+#[pyo3(signature = (scene, spp=None, samples=None, seed=None, threads=None, time=None, target_error=None, adaptive=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     py: Python<'_>,
@@ -272,7 +272,7 @@ pub fn render(
     threads: Option<usize>,
     time: Option<f64>,
     target_error: Option<f64>,
-    adaptive: bool,
+    adaptive: Option<bool>,
     progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<NativeImage> {
     let settings = &scene.loaded.settings;
@@ -287,7 +287,7 @@ pub fn render(
         options.samples = 0..n;
     }
     if let Some((a, b)) = samples {
-        if adaptive {
+        if adaptive == Some(true) {
             // As the command line: a range is a part of a split render.
             return Err(RenderError::new_err(
                 prism::render::RenderError::AdaptiveRange.to_string(),
@@ -321,7 +321,24 @@ pub fn render(
         }
         options.target_error = Some(t);
     }
-    options.adaptive = adaptive;
+    // As the command line: adaptive where the scene or integrator says,
+    // unless this is a part of a render or has an error target (a warning
+    // says so).
+    options.adaptive = match adaptive {
+        Some(a) => a,
+        None if options.adaptive => {
+            match uniform_instead(samples.is_some(), target_error.is_some()) {
+                Some(reason) => {
+                    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+                    let message = std::ffi::CString::new(reason).expect("no NUL in the reason");
+                    PyErr::warn(py, category.as_any(), &message, 2)?;
+                    false
+                }
+                None => true,
+            }
+        }
+        None => false,
+    };
     let counts = Arc::new(ProgressCounts::default());
     let cancel = Arc::new(AtomicBool::new(false));
     options.progress_counts = Some(counts.clone());

@@ -115,7 +115,7 @@ def test_ctrl_c_returns_the_image_with_even_samples(cornell):
             sent.append(info["done"])
             os.kill(os.getpid(), signal.SIGINT)
 
-    image = prism.render(cornell, spp=1 << 20, progress=interrupt)
+    image = prism.render(cornell, spp=1 << 20, adaptive=False, progress=interrupt)
     assert image.interrupted and image.metadata["stop"] == "interrupted"
     counts = image.sample_count
     assert counts.min() == counts.max() > 0
@@ -123,7 +123,7 @@ def test_ctrl_c_returns_the_image_with_even_samples(cornell):
 
 
 def test_a_time_budget_stops_after_the_pass_under_way(cornell):
-    image = prism.render(cornell, spp=1 << 20, time=0.2, progress=False)
+    image = prism.render(cornell, spp=1 << 20, time=0.2, adaptive=False, progress=False)
     assert image.interrupted and image.metadata["stop"] == "time budget"
     assert image.sample_count.min() == image.sample_count.max()
 
@@ -132,7 +132,9 @@ def test_progress_is_called_with_fractions_up_to_one(cornell):
     seen = []
     prism.render(cornell, spp=4, progress=lambda f, info: seen.append((f, info["done"], info["total"])))
     assert seen and all(0 <= f <= 1 for f, _, _ in seen)
-    assert seen[-1][0] == 1.0 and seen[-1][1] == 48 * 32 * 4
+    assert seen[-1][0] == 1.0 and seen[-1][1] == seen[-1][2]
+    # Adaptive by default: the counts average the 4 samples asked for.
+    assert abs(seen[-1][2] - 48 * 32 * 4) <= 48 * 32 * 0.05
 
 
 def test_an_error_in_the_progress_callback_stops_the_render_and_is_raised(cornell):
@@ -169,14 +171,20 @@ def test_render_errors(cornell):
         prism.render(cornell, integrator="bdpt", adaptive=True, progress=False)
     with pytest.raises(prism.RenderError, match="adaptive sampling spreads"):
         prism.render(cornell, adaptive=True, samples=range(0, 8), progress=False)
+    # Adaptive by default, but not towards an error target (which says so).
+    with pytest.warns(UserWarning, match="uniform sampling: an error target"):
+        image = prism.render(cornell, spp=8, target_error=1e-9, progress=False)
+    assert image.sample_count.min() == image.sample_count.max() == 8
 
 
 def test_render_overrides_and_sample_ranges_merge_exactly(cornell):
     small = prism.render(cornell, spp=2, resolution=(24, 16), progress=False)
     assert small.rgb.shape == (16, 24, 3)
-    whole = prism.render(cornell, spp=4, progress=False)
-    first = prism.render(cornell, samples=range(0, 2), progress=False)
-    second = prism.render(cornell, samples=(2, 4), progress=False)
+    whole = prism.render(cornell, spp=4, adaptive=False, progress=False)
+    # Parts of a render sample uniformly, and say so.
+    with pytest.warns(UserWarning, match="uniform sampling: this is a part of a render"):
+        first = prism.render(cornell, samples=range(0, 2), progress=False)
+    second = prism.render(cornell, samples=(2, 4), adaptive=False, progress=False)
     merged = (first.spectral + second.spectral) / 2
     assert np.allclose(merged, whole.spectral, rtol=1e-5, atol=1e-6)
 

@@ -46,71 +46,71 @@ const ADAPTIVE_RADIUS: i64 = 4;
 /// variance 10% and 9%, 1.4 only 4%.
 const ADAPTIVE_POWER: f64 = 0.75;
 
+/// Fixed cost of a sample, in rays: the camera ray's set-up, the sampler,
+/// adding the sample to the film. So that a pixel whose paths end at once
+/// (sky, a light seen directly) does not look nearly free.
+const SAMPLE_OVERHEAD_RAYS: f64 = 1.0;
+
 /// Adaptive sampling: how many samples each pixel of `region` takes so
 /// that they average `spp`, from a film holding the first `pilot` samples
 /// of every pixel. Each pixel gets at least a quarter of `spp` (and the
 /// pilot); the rest goes in proportion to a power (`ADAPTIVE_POWER`) of
 /// the relative error per sample, σ / √(mean² + 0.01) (luminance, the ε
-/// of the relMSE), to lower the summed relative variance σ²/(n (mean² + ε))
-/// for the budget; at most 16 × `spp`.
+/// of the relMSE), over the square root of the cost of a sample (the rays
+/// it traced, and `SAMPLE_OVERHEAD_RAYS`): the counts that lower the summed
+/// relative variance σ²/(n (mean² + ε)) most for the CPU time they take
+/// (Lagrange: n ∝ σ/√cost). Without the cost, samples moved to the pixels
+/// whose paths are long, and the render took 8–35% more CPU time for the
+/// same samples, eating most of the variance it saved. At most 16 × `spp`.
 ///
-/// A pixel's error is the mean of its neighbours' (the pixels within
-/// `ADAPTIVE_RADIUS`, itself left out): a few pilot samples give a noisy
-/// error per pixel, and a count that followed it would chase the noise.
-/// Leaving the pixel out keeps the image unbiased with the pilot in it:
-/// a pixel's count does not depend on its own samples, so its value is
-/// the mean of a number of samples fixed independently of them.
+/// A pixel's error and cost are the means of its neighbours' (the pixels
+/// within `ADAPTIVE_RADIUS`, itself left out): a few pilot samples give a
+/// noisy error per pixel, and a count that followed it would chase the
+/// noise. Leaving the pixel out keeps the image unbiased with the pilot in
+/// it: a pixel's count does not depend on its own samples, so its value is
+/// the mean of a number of samples fixed independently of them (but for
+/// the budget's normalisation over the region, in which its samples weigh
+/// about one part in the region's pixels).
 pub fn targets(film: &Film, region: [u32; 4], spp: u32, pilot: u32) -> Vec<u32> {
     let [x0, y0, x1, y1] = region;
     let (w, h) = (
         x1.saturating_sub(x0) as usize,
         y1.saturating_sub(y0) as usize,
     );
-    let errors: Vec<f64> = (y0..y1)
-        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let (m, var_of_mean) = film.luminance_and_variance(x, y);
-            let n = film.sums(x, y).samples as f64;
-            let sigma = (var_of_mean * n).max(0.0).sqrt();
-            let e = sigma / (m * m + REL_MSE_EPSILON).sqrt();
-            if e.is_finite() {
-                e
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    // Summed-area table: each window's sum in four lookups.
-    let mut table = vec![0.0f64; (w + 1) * (h + 1)];
-    for y in 0..h {
-        let mut row = 0.0;
-        for x in 0..w {
-            row += errors[y * w + x];
-            table[(y + 1) * (w + 1) + x + 1] = table[y * (w + 1) + x + 1] + row;
-        }
-    }
-    let r = ADAPTIVE_RADIUS;
-    let smoothed: Vec<f64> = (0..h as i64)
-        .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let (ax, bx) = ((x - r).max(0) as usize, (x + r + 1).min(w as i64) as usize);
-            let (ay, by) = ((y - r).max(0) as usize, (y + r + 1).min(h as i64) as usize);
-            let at = |x: usize, y: usize| table[y * (w + 1) + x];
-            let sum = at(bx, by) - at(ax, by) - at(bx, ay) + at(ax, ay);
-            let count = ((bx - ax) * (by - ay)) as f64 - 1.0;
-            let own = errors[y as usize * w + x as usize];
-            if count > 0.0 {
-                ((sum - own) / count).max(0.0).powf(ADAPTIVE_POWER)
-            } else {
-                0.0
-            }
+    let per_pixel = |f: &dyn Fn(u32, u32) -> f64| -> Vec<f64> {
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .map(|(x, y)| f(x, y))
+            .map(|v| if v.is_finite() { v } else { 0.0 })
+            .collect()
+    };
+    let errors = per_pixel(&|x, y| {
+        let (m, var_of_mean) = film.luminance_and_variance(x, y);
+        let n = film.sums(x, y).samples as f64;
+        let sigma = (var_of_mean * n).max(0.0).sqrt();
+        sigma / (m * m + REL_MSE_EPSILON).sqrt()
+    });
+    let costs = per_pixel(&|x, y| {
+        let s = film.sums(x, y);
+        s.rays as f64 / s.samples.max(1) as f64 + SAMPLE_OVERHEAD_RAYS
+    });
+    let (errors, costs) = (
+        neighbours_mean(&errors, w, h),
+        neighbours_mean(&costs, w, h),
+    );
+    let scores: Vec<f64> = errors
+        .iter()
+        .zip(&costs)
+        .map(|(&e, &c)| match e / c.sqrt() {
+            s if s.is_finite() && s > 0.0 => s.powf(ADAPTIVE_POWER),
+            _ => 0.0,
         })
         .collect();
     let floor = (spp / 4).max(pilot).max(1).min(spp.max(1));
     let cap = spp.saturating_mul(16).max(floor);
-    let spare = (spp - floor.min(spp)) as f64 * smoothed.len() as f64;
-    let total: f64 = smoothed.iter().sum();
-    smoothed
+    let spare = (spp - floor.min(spp)) as f64 * scores.len() as f64;
+    let total: f64 = scores.iter().sum();
+    scores
         .iter()
         .map(|&e| {
             let share = if total > 0.0 {
@@ -121,6 +121,56 @@ pub fn targets(film: &Film, region: [u32; 4], spp: u32, pilot: u32) -> Vec<u32> 
             (floor + share.round() as u32).min(cap)
         })
         .collect()
+}
+
+/// Each of a `w` × `h` image's values replaced by the mean of the values
+/// within `ADAPTIVE_RADIUS` of it, its own left out (0 with no neighbour).
+fn neighbours_mean(values: &[f64], w: usize, h: usize) -> Vec<f64> {
+    // Summed-area table: each window's sum in four lookups.
+    let mut table = vec![0.0f64; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0.0;
+        for x in 0..w {
+            row += values[y * w + x];
+            table[(y + 1) * (w + 1) + x + 1] = table[y * (w + 1) + x + 1] + row;
+        }
+    }
+    let r = ADAPTIVE_RADIUS;
+    (0..h as i64)
+        .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (ax, bx) = ((x - r).max(0) as usize, (x + r + 1).min(w as i64) as usize);
+            let (ay, by) = ((y - r).max(0) as usize, (y + r + 1).min(h as i64) as usize);
+            let at = |x: usize, y: usize| table[y * (w + 1) + x];
+            let sum = at(bx, by) - at(ax, by) - at(bx, ay) + at(ax, ay);
+            let count = ((bx - ax) * (by - ay)) as f64 - 1.0;
+            let own = values[y as usize * w + x as usize];
+            if count > 0.0 {
+                ((sum - own) / count).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// What a render asks for that adaptive sampling would spoil: the reason a
+/// render adaptive by default samples every pixel alike instead, for a
+/// line on the terminal. `part` is a render of some sample indices or some
+/// pixels only, for `prism merge`.
+pub fn uniform_instead(part: bool, target_error: bool) -> Option<&'static str> {
+    if part {
+        // Merged parts must each hold the same sample indices in every
+        // pixel: adaptive counts differ pixel by pixel.
+        Some("uniform sampling: this is a part of a render (a sample range or a tile), and `prism merge` joins parts that hold the same samples in every pixel")
+    } else if target_error {
+        // Adaptive renders estimate their error from the spread of each
+        // pixel's samples, which overstates the error of Sobol points
+        // (docs/features.md, "Error target"): the render would run on.
+        Some("uniform sampling: an error target is estimated best from uniform samples (adaptive ones would overstate it and render longer)")
+    } else {
+        None
+    }
 }
 
 #[cfg(test)]
@@ -168,14 +218,64 @@ mod tests {
     /// A film whose pixels have `n` samples of luminance `value(x, y)`
     /// half the time and 0 otherwise (variance from the spread).
     fn pilot_film(w: u32, h: u32, n: u64, value: impl Fn(u32, u32) -> f64) -> Film {
+        costly_pilot_film(w, h, n, value, |_, _| 0)
+    }
+
+    /// The same, each sample having traced `rays(x, y)` rays.
+    fn costly_pilot_film(
+        w: u32,
+        h: u32,
+        n: u64,
+        value: impl Fn(u32, u32) -> f64,
+        rays: impl Fn(u32, u32) -> u64,
+    ) -> Film {
         Film::from_pixel_sums(w, h, |x, y| {
             let v = value(x, y);
             crate::film::PixelSums {
                 xyz: glam::DVec3::splat(v * n as f64 / 2.0),
                 y_squared: v * v * n as f64 / 2.0,
                 samples: n,
+                rays: rays(x, y) * n,
             }
         })
+    }
+
+    #[test]
+    fn costly_pixels_take_fewer_samples_for_the_same_error() {
+        // Equal errors everywhere; the left half's samples trace 15 rays,
+        // the right half's none (cost 16 against 1 with the overhead).
+        let (w, h, spp, pilot) = (32, 16, 64, 4);
+        let rays = |x: u32, _| if x < w / 2 { 15 } else { 0 };
+        let film = costly_pilot_film(w, h, pilot as u64, |_, _| 1.0, rays);
+        let t = targets(&film, [0, 0, w, h], spp, pilot);
+        let mean = t.iter().map(|&n| n as f64).sum::<f64>() / t.len() as f64;
+        assert!((mean - spp as f64).abs() < 1.0, "mean {mean}");
+        // Far from the edge: spare samples in the ratio (1/√16)^0.75 = 0.35.
+        let (costly, cheap) = (t[8 * w as usize + 2] - 16, t[8 * w as usize + 29] - 16);
+        let ratio = costly as f64 / cheap as f64;
+        assert!((ratio - 0.354).abs() < 0.02, "{costly} vs {cheap}");
+        // A pixel's own cost does not move its count, only its neighbours'
+        // (and, through the budget's normalisation, every count alike: the
+        // pixel keeps the count of a far pixel of equal score).
+        let (px, py) = (24u32, 8u32);
+        let far = (w + 30) as usize;
+        assert_eq!(t[(py * w + px) as usize], t[far]);
+        let own = |x, y| if (x, y) == (px, py) { 1000 } else { rays(x, y) };
+        let u = targets(
+            &costly_pilot_film(w, h, pilot as u64, |_, _| 1.0, own),
+            [0, 0, w, h],
+            spp,
+            pilot,
+        );
+        let i = (py * w + px) as usize;
+        assert_eq!(u[i], u[far]);
+        assert!(u[i] > t[i], "the others gain what its neighbours lose");
+        assert!(
+            u[i + 1] < t[i + 1],
+            "a neighbour: {} vs {}",
+            u[i + 1],
+            t[i + 1]
+        );
     }
 
     #[test]

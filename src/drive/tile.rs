@@ -35,6 +35,7 @@ where
         for x in x0..x0 + w {
             let range = indices(x, y);
             taken += range.len() as u64;
+            let rays_before = counters.rays;
             for index in range {
                 let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
                 let s = sample(x, y, &mut sampler, &mut tile, &mut counters);
@@ -53,6 +54,7 @@ where
                     tile.add_aov(x, y, &a);
                 }
             }
+            tile.add_rays(x, y, counters.rays - rays_before);
         }
     }
     job.count(taken, &counters, bad + tile.non_finite_splats);

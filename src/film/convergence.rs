@@ -90,6 +90,7 @@ mod tests {
                 xyz: glam::DVec3::splat(s.iter().sum()),
                 y_squared: s.iter().map(|v| v * v).sum(),
                 samples: s.len() as u64,
+                rays: 0,
             }
         })
     }

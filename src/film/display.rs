@@ -76,6 +76,16 @@ impl Display {
     }
 }
 
+/// How a render spreads its samples over the pixels (`film.sampling`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sampling {
+    /// Where a pilot finds the relative error high (`drive::adaptive`).
+    Adaptive,
+    /// The same samples in every pixel.
+    Uniform,
+}
+
 /// How out-of-gamut display colours are brought in (`film.gamut`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -13,7 +13,7 @@ mod tile;
 pub use tile::{tile_spectrum_bytes, FilmBand, FilmTile};
 
 pub use colour::{ColourSpace, ColourTransform};
-pub use display::{Display, DisplaySettings, Gamut};
+pub use display::{Display, DisplaySettings, Gamut, Sampling};
 pub use output::Tonemap;
 
 use glam::{DVec3, Vec3};
@@ -32,6 +32,9 @@ pub struct FilmSettings {
     pub spp: u32,
     /// Seed of a render that does not choose its own.
     pub seed: u64,
+    /// How a render spreads its samples, where the scene says; None: as
+    /// its integrator does by default (`Integrator::adaptive_by_default`).
+    pub sampling: Option<Sampling>,
     pub layout: SpectralLayout,
     /// Write NAME.spectral.exr next to the RGB files.
     pub spectral_output: bool,
@@ -97,6 +100,7 @@ impl FilmSettings {
             height,
             spp: 64,
             seed: 0,
+            sampling: None,
             layout: SpectralLayout {
                 min: 380.0,
                 max: 780.0,
@@ -205,6 +209,8 @@ pub struct PixelSums {
     pub xyz: DVec3,
     pub y_squared: f64,
     pub samples: u64,
+    /// Rays traced for its samples: the cost adaptive sampling weighs.
+    pub rays: u64,
 }
 
 #[derive(Clone, Debug)]

@@ -179,6 +179,12 @@ impl FilmTile {
         }
     }
 
+    /// Counts the rays traced for the pixel's samples.
+    pub fn add_rays(&mut self, x: u32, y: u32, rays: u64) {
+        let i = ((y - self.y0) * self.width + (x - self.x0)) as usize;
+        self.pixels[i].rays += rays;
+    }
+
     /// Counts a sample that was dropped (non-finite): it adds zero.
     pub fn add_empty_sample(&mut self, x: u32, y: u32) {
         let i = ((y - self.y0) * self.width + (x - self.x0)) as usize;
@@ -208,6 +214,7 @@ impl FilmBand<'_> {
             a.xyz += b.xyz;
             a.y_squared += b.y_squared;
             a.samples += b.samples;
+            a.rays += b.rays;
         }
         if !self.aovs.is_empty() {
             for (i, b) in tile.aovs.iter().enumerate() {

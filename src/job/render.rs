@@ -11,11 +11,12 @@ use anyhow::{bail, Result};
 
 use super::tev::Tev;
 use super::{check_writable, output_stem, suffixed};
+use crate::drive::adaptive::uniform_instead;
 use crate::film::display::{
     matrix_text, rgb_to_display, ATTR_DISPLAY, ATTR_GAMUT, ATTR_PNG_BITS, ATTR_RGB_TO_DISPLAY,
 };
 use crate::film::{output, spectral_exr};
-use crate::film::{ColourTransform, Film, FilmSettings};
+use crate::film::{ColourTransform, Film, FilmSettings, Sampling};
 use crate::integrator::ior_stack::CAPACITY;
 use crate::integrator::Integrator;
 use crate::load::{self, Loaded, Overrides};
@@ -53,8 +54,9 @@ pub struct RenderJob {
     pub preview_every: Option<Duration>,
     /// Stream the image to tev at HOST:PORT (`--display`).
     pub display: Option<String>,
-    /// Adaptive sampling (`--adaptive`).
-    pub adaptive: bool,
+    /// `--adaptive` or `--uniform`; None: the scene's and integrator's
+    /// default (`RenderSettings::adaptive`).
+    pub sampling: Option<Sampling>,
 }
 
 /// How a render job ended (errors aside).
@@ -164,7 +166,7 @@ pub fn render_files(job: &RenderJob) -> Result<RenderOutcome> {
     }
 
     let (result, stats) = render(scene, settings, &options)?;
-    report_render(job, &options, &result, &stats, &settings.film);
+    report_render(&options, &result, &stats, &settings.film);
     if !job.interrupts.begin_writing() {
         // Interrupted twice: the signal handler is ending the process.
         return Ok(RenderOutcome { interrupted: true });
@@ -215,7 +217,20 @@ fn render_options(job: &RenderJob, settings: &RenderSettings) -> Result<RenderOp
     options.time_budget = job.time_budget;
     options.target_error = job.target_error;
     options.log_every = job.log_every;
-    options.adaptive = job.adaptive;
+    options.adaptive = match job.sampling {
+        Some(s) => s == Sampling::Adaptive,
+        None if options.adaptive => {
+            let part = job.samples.is_some() || job.tile.is_some();
+            match uniform_instead(part, job.target_error.is_some()) {
+                Some(reason) => {
+                    eprintln!("{reason}");
+                    false
+                }
+                None => true,
+            }
+        }
+        None => false,
+    };
     Ok(options)
 }
 
@@ -269,18 +284,12 @@ fn pass_hooks(job: &RenderJob, stem: &Path, film: &FilmSettings) -> Option<PassH
 }
 
 /// The closing lines: samples, speed, error, warnings, why it stopped.
-fn report_render(
-    job: &RenderJob,
-    options: &RenderOptions,
-    result: &Film,
-    stats: &RenderStats,
-    film: &FilmSettings,
-) {
+fn report_render(options: &RenderOptions, result: &Film, stats: &RenderStats, film: &FilmSettings) {
     let secs = stats.elapsed.as_secs_f64();
     eprintln!(
         "rendered {} samples ({}) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
         stats.samples,
-        if job.adaptive {
+        if options.adaptive {
             "adaptive".to_string()
         } else {
             format!("{} per pixel", stats.spp)
@@ -306,13 +315,13 @@ fn report_render(
             stats.stack_overflows,
         );
     }
-    if job.adaptive {
+    if options.adaptive {
         report_adaptive_counts(result, stats, film);
     }
     // After an adaptive pilot, every pixel advances by the same share of
     // the rest of its own count.
     let requested = options.samples.len() as u32;
-    let taken = if job.adaptive && stats.spp > stats.pilot_spp && requested > stats.pilot_spp {
+    let taken = if options.adaptive && stats.spp > stats.pilot_spp && requested > stats.pilot_spp {
         format!(
             "every pixel has its first {} samples and {:.0}% of the rest of its adaptive count",
             stats.pilot_spp,

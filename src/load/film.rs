@@ -61,6 +61,7 @@ impl Loader {
             height,
             spp: f.spp,
             seed: f.seed,
+            sampling: f.sampling,
             layout: SpectralLayout {
                 min: f.spectral_range[0],
                 max: f.spectral_range[1],

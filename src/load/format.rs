@@ -9,7 +9,7 @@ use serde::Deserialize;
 
 use super::exact;
 use super::spectrum_spec::{IorSpec, SpectrumSpec};
-use crate::film::{ColourSpace, Display, Gamut, Tonemap};
+use crate::film::{ColourSpace, Display, Gamut, Sampling, Tonemap};
 use crate::integrator::IntegratorSpec;
 use crate::spectrum::cie::Observer;
 
@@ -236,6 +236,8 @@ pub struct FilmSpec {
     pub max_depth: Option<u32>,
     /// Seed of every random decision; the same seed gives the same image.
     pub seed: u64,
+    /// "adaptive" or "uniform"; unset, adaptive where the integrator gains.
+    pub sampling: Option<Sampling>,
     /// Exposure in stops applied to the PNG (the EXR stays radiometric).
     pub exposure: f32,
     /// The EXRs' XYZ and RGB in absolute units: Y is luminance in cd/m²
@@ -273,6 +275,7 @@ impl Default for FilmSpec {
             spp: 64,
             max_depth: None,
             seed: 0,
+            sampling: None,
             exposure: 0.0,
             photometric: false,
             tonemap: Tonemap::Clamp,

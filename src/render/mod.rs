@@ -7,13 +7,13 @@
 mod memory;
 
 pub use crate::drive::adaptive::{
-    pilot_spp, progress as adaptive_progress, targets as adaptive_targets,
+    pilot_spp, progress as adaptive_progress, targets as adaptive_targets, uniform_instead,
 };
 pub use crate::drive::{PassHook, ProgressCounts, RenderError, RenderOptions, RenderStats, Stop};
 pub use memory::{memory_estimate, MemoryEstimate};
 
 use crate::drive::{AovTracer, RenderJob};
-use crate::film::{Film, FilmSettings};
+use crate::film::{Film, FilmSettings, Sampling};
 use crate::integrator::aov::Aovs;
 use crate::integrator::Integrator;
 use crate::scene::Scene;
@@ -28,9 +28,24 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    /// One render of the whole film at the settings' samples and seed.
+    /// One render of the whole film at the settings' samples and seed,
+    /// sampled as the scene file says (`film.sampling`) or, where it says
+    /// nothing, as the integrator does best
+    /// ([`Integrator::adaptive_by_default`]).
     pub fn options(&self) -> RenderOptions {
-        RenderOptions::new(&self.film)
+        RenderOptions {
+            adaptive: self.adaptive(),
+            ..RenderOptions::new(&self.film)
+        }
+    }
+
+    /// Whether a render of these settings spreads its samples adaptively
+    /// unless its caller says otherwise.
+    pub fn adaptive(&self) -> bool {
+        match self.film.sampling {
+            Some(s) => s == Sampling::Adaptive,
+            None => self.integrator.adaptive_by_default(),
+        }
     }
 }
 

@@ -1,0 +1,128 @@
+//! How renders spread their samples by default: adaptively for the path
+//! tracers, uniformly for the splatting integrators and photon mapping;
+//! parts of a render and error targets fall back to uniform sampling with a
+//! line that says so; `--uniform`, `--adaptive` and `film.sampling` choose.
+
+use std::path::Path;
+use std::process::Command;
+
+const SCENE: &str = r#"
+[camera]
+position = [0, 1, -4]
+look_at = [0, 0.5, 0]
+
+[film]
+resolution = [32, 24]
+spp = 16
+
+[[shape]]
+type = "quad"
+vertices = [[-5, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]
+
+[[shape]]
+type = "sphere"
+center = [0, 3, 0]
+radius = 0.5
+emission = "D65"
+emission_scale = 10
+"#;
+
+/// Renders `scene` (text) with `args` in a new folder; the stderr and the
+/// per-pixel sample counts of the spectral EXR.
+fn render(scene: &str, args: &[&str]) -> (String, Vec<f32>, bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.toml");
+    std::fs::write(&path, scene).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args(["render", "-q", "--threads", "2", "-o"])
+        .arg(dir.path().join("out"))
+        .args(args)
+        .arg(&path)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{err}");
+    let img = prism::film::spectral_exr::read(&dir.path().join("out.spectral.exr")).unwrap();
+    let adaptive = img.attributes.contains_key(prism::merge::ATTR_ADAPTIVE);
+    (err, img.other["sampleCount"].clone(), adaptive)
+}
+
+fn uniform(counts: &[f32], spp: f32) -> bool {
+    counts.iter().all(|&c| c == spp)
+}
+
+fn with_film_key(key: &str) -> String {
+    SCENE.replace("spp = 16", &format!("spp = 16\n{key}"))
+}
+
+#[test]
+fn the_path_tracer_samples_adaptively_unless_told_otherwise() {
+    let (err, counts, adaptive) = render(SCENE, &[]);
+    assert!(adaptive && !uniform(&counts, 16.0), "{err}");
+    assert!(err.contains("adaptive: "), "{err}");
+    let mean = counts.iter().sum::<f32>() / counts.len() as f32;
+    assert!((mean - 16.0).abs() < 0.5, "mean {mean}");
+    for (args, key) in [
+        (&["--uniform"][..], ""),
+        (&[][..], "sampling = \"uniform\""),
+    ] {
+        let (err, counts, adaptive) = render(&with_film_key(key), args);
+        assert!(!adaptive && uniform(&counts, 16.0), "{args:?} {key}: {err}");
+    }
+    // The command line wins over the scene file.
+    let (_, counts, adaptive) = render(&with_film_key("sampling = \"uniform\""), &["--adaptive"]);
+    assert!(adaptive && !uniform(&counts, 16.0));
+}
+
+#[test]
+fn parts_of_a_render_and_error_targets_sample_uniformly_and_say_so() {
+    for args in [
+        &["--samples", "0..16"][..],
+        &["--tile", "0,0,16,24"],
+        &["--target-error", "1e-12"],
+    ] {
+        let (err, counts, adaptive) = render(SCENE, args);
+        assert!(!adaptive, "{args:?}");
+        assert!(err.contains("uniform sampling: "), "{args:?}: {err}");
+        let taken: Vec<f32> = counts.iter().copied().filter(|&c| c > 0.0).collect();
+        assert!(uniform(&taken, 16.0), "{args:?}");
+    }
+    // Asked for explicitly, adaptive sampling of a range is refused.
+    let out = Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args(["render", "--adaptive", "--samples", "0..8", "x.toml"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn the_splatting_integrators_sample_uniformly_and_refuse_adaptive_scenes() {
+    for kind in ["bdpt", "light", "sppm"] {
+        let (err, counts, adaptive) = render(SCENE, &["--integrator", kind]);
+        assert!(!adaptive && uniform(&counts, 16.0), "{kind}: {err}");
+        // The default is not a fallback: no line about it.
+        assert!(!err.contains("uniform sampling"), "{kind}: {err}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bdpt.toml");
+    let text = with_film_key("sampling = \"adaptive\"") + "\n[integrator]\ntype = \"bdpt\"\n";
+    std::fs::write(&path, text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args(["render", "-q"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("bdpt.toml") && err.contains("film.sampling"),
+        "{err}"
+    );
+    let typo = with_film_key("sampling = \"adaptve\"");
+    let loaded = prism::load::load_str(&typo, Path::new("."));
+    let e = loaded
+        .err()
+        .expect("a misspelt value is refused")
+        .to_string();
+    assert!(e.contains("sampling") && e.contains("adaptive"), "{e}");
+}
