@@ -32,7 +32,7 @@ struct Cli {
 const RENDER_EXAMPLES: &str = "Examples:
   prism render scenes/cornell-box.toml                        64 spp at 512x512, next to the scene
   prism render scenes/cornell-box.toml --spp 16 -o out/cbox   a quick look, into out/
-  prism render scenes/cornell-box.toml --time 30s --adaptive  stop after 30 s (at most 64 spp); samples where needed
+  prism render scenes/cornell-box.toml --time 30s             stop after 30 s (at most 64 spp)
   prism render scenes/gem.toml --integrator sppm              a diamond's caustics, by photon mapping
   prism render scenes/cornell-box.toml --samples 0..64 -o out/part-a
                                                               one part of a render, for `prism merge`
@@ -134,8 +134,8 @@ enum Command {
         /// Spend the samples (--spp on average per pixel) where a pilot
         /// (the first sixteenth, part of the image) finds the relative error
         /// high; unbiased, as a pixel's count depends on its neighbours'
-        /// pilot samples, never its own. The default of `path` and
-        /// `path_caustics` (overrides film.sampling), except for a part of a
+        /// pilot samples, never its own. The default of `path` (overrides
+        /// film.sampling), except for a part of a
         /// render (--samples, --tile) or an error target, which say so.
         #[arg(long, conflicts_with_all = ["samples", "uniform"])]
         adaptive: bool,
