@@ -134,8 +134,8 @@ enum Command {
         /// Spend the samples (--spp on average per pixel) where a pilot
         /// (the first sixteenth, part of the image) finds the relative error
         /// high; unbiased, as a pixel's count depends on its neighbours'
-        /// pilot samples, never its own. The default of `path` (overrides
-        /// film.sampling), except for a part of a
+        /// pilot samples, never its own. Overrides film.sampling; where the
+        /// scene asks for it, a part of a
         /// render (--samples, --tile) or an error target, which say so.
         #[arg(long, conflicts_with_all = ["samples", "uniform"])]
         adaptive: bool,
@@ -207,8 +207,7 @@ enum Command {
         /// Adaptive sampling in every rung (not the reference): each
         /// rung's samples per pixel on average, spread where a pilot of its
         /// first samples finds the relative error high. Rungs sample as
-        /// `prism render` does by default (film.sampling, else adaptive for
-        /// `path` and `path_caustics`).
+        /// `prism render` does by default (film.sampling).
         #[arg(long, conflicts_with = "uniform")]
         adaptive: bool,
         /// The same samples in every pixel of every rung.

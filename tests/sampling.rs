@@ -1,7 +1,7 @@
-//! How renders spread their samples by default: adaptively for the path
-//! tracers, uniformly for the splatting integrators and photon mapping;
-//! parts of a render and error targets fall back to uniform sampling with a
-//! line that says so; `--uniform`, `--adaptive` and `film.sampling` choose.
+//! How renders spread their samples: uniformly unless the scene
+//! (`film.sampling`) or the command line (`--adaptive`, `--uniform`) says;
+//! where the scene asks for adaptive sampling, parts of a render and error
+//! targets fall back to uniform sampling with a line that says so.
 
 use std::path::Path;
 use std::process::Command;
@@ -55,23 +55,28 @@ fn with_film_key(key: &str) -> String {
     SCENE.replace("spp = 16", &format!("spp = 16\n{key}"))
 }
 
+const ADAPTIVE: &str = "sampling = \"adaptive\"";
+
 #[test]
-fn the_path_tracer_samples_adaptively_unless_told_otherwise() {
+fn scenes_and_the_command_line_choose_adaptive_sampling() {
     let (err, counts, adaptive) = render(SCENE, &[]);
-    assert!(adaptive && !uniform(&counts, 16.0), "{err}");
-    assert!(err.contains("adaptive: "), "{err}");
-    let mean = counts.iter().sum::<f32>() / counts.len() as f32;
-    assert!((mean - 16.0).abs() < 0.5, "mean {mean}");
+    assert!(!adaptive && uniform(&counts, 16.0), "{err}");
+    assert!(!err.contains("uniform sampling"), "not a fallback: {err}");
+    for (args, key) in [(&[][..], ADAPTIVE), (&["--adaptive"][..], "")] {
+        let (err, counts, adaptive) = render(&with_film_key(key), args);
+        assert!(adaptive && !uniform(&counts, 16.0), "{args:?} {key}: {err}");
+        assert!(err.contains("adaptive: "), "{err}");
+        let mean = counts.iter().sum::<f32>() / counts.len() as f32;
+        assert!((mean - 16.0).abs() < 0.5, "mean {mean}");
+    }
+    // The command line wins over the scene file.
     for (args, key) in [
-        (&["--uniform"][..], ""),
+        (&["--uniform"][..], ADAPTIVE),
         (&[][..], "sampling = \"uniform\""),
     ] {
         let (err, counts, adaptive) = render(&with_film_key(key), args);
         assert!(!adaptive && uniform(&counts, 16.0), "{args:?} {key}: {err}");
     }
-    // The command line wins over the scene file.
-    let (_, counts, adaptive) = render(&with_film_key("sampling = \"uniform\""), &["--adaptive"]);
-    assert!(adaptive && !uniform(&counts, 16.0));
 }
 
 #[test]
@@ -81,7 +86,7 @@ fn parts_of_a_render_and_error_targets_sample_uniformly_and_say_so() {
         &["--tile", "0,0,16,24"],
         &["--target-error", "1e-12"],
     ] {
-        let (err, counts, adaptive) = render(SCENE, args);
+        let (err, counts, adaptive) = render(&with_film_key(ADAPTIVE), args);
         assert!(!adaptive, "{args:?}");
         assert!(err.contains("uniform sampling: "), "{args:?}: {err}");
         let taken: Vec<f32> = counts.iter().copied().filter(|&c| c > 0.0).collect();
@@ -96,28 +101,17 @@ fn parts_of_a_render_and_error_targets_sample_uniformly_and_say_so() {
 }
 
 #[test]
-fn the_splatting_integrators_sample_uniformly_and_refuse_adaptive_scenes() {
-    for kind in ["bdpt", "light", "sppm"] {
+fn other_integrators_sample_uniformly_and_say_so_where_the_scene_asks() {
+    for kind in ["bdpt", "light", "sppm", "path_caustics"] {
         let (err, counts, adaptive) = render(SCENE, &["--integrator", kind]);
         assert!(!adaptive && uniform(&counts, 16.0), "{kind}: {err}");
         // The default is not a fallback: no line about it.
         assert!(!err.contains("uniform sampling"), "{kind}: {err}");
+        // A scene that asks for adaptive sampling renders with them too.
+        let (err, counts, adaptive) = render(&with_film_key(ADAPTIVE), &["--integrator", kind]);
+        assert!(!adaptive && uniform(&counts, 16.0), "{kind}: {err}");
+        assert!(err.contains("only the path tracer takes"), "{kind}: {err}");
     }
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("bdpt.toml");
-    let text = with_film_key("sampling = \"adaptive\"") + "\n[integrator]\ntype = \"bdpt\"\n";
-    std::fs::write(&path, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_prism"))
-        .args(["render", "-q"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("bdpt.toml") && err.contains("film.sampling"),
-        "{err}"
-    );
     let typo = with_film_key("sampling = \"adaptve\"");
     let loaded = prism::load::load_str(&typo, Path::new("."));
     let e = loaded

@@ -289,7 +289,7 @@ def main():
     ap.add_argument("--prism", help="the prism binary (default: target/release/prism, built if missing)")
     ap.add_argument("--split", type=int, help="prism's path splitting (integrator.split) for the ladder")
     ap.add_argument("--uniform", action="store_true",
-                    help="the same samples in every pixel of prism's rungs (default: as `prism render`, adaptive for the path tracer)")
+                    help="the same samples in every pixel of prism's rungs (default: as `prism render`, the scene's film.sampling)")
     args = ap.parse_args()
     global PRISM
     PRISM = args.prism

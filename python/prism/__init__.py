@@ -395,7 +395,7 @@ def render(
       ``target_error``: stop once the estimated relative MSE is below it.
     - ``adaptive``: spend the samples where a pilot finds the error high
       (True), or the same in every pixel (False). Default: the scene's
-      ``film.sampling``, else adaptive for ``path``,
+      ``film.sampling`` (uniform where it says nothing),
       except with ``samples`` (a part of a render) or ``target_error``,
       which sample uniformly and warn (``UserWarning``) that they do.
     - ``progress``: True (a bar on stderr), False, or a callable

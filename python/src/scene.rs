@@ -326,8 +326,12 @@ pub fn render(
     // says so).
     options.adaptive = match adaptive {
         Some(a) => a,
-        None if options.adaptive => {
-            match uniform_instead(samples.is_some(), target_error.is_some()) {
+        None if settings.asks_adaptive() => {
+            match uniform_instead(
+                settings.adaptive(),
+                samples.is_some(),
+                target_error.is_some(),
+            ) {
                 Some(reason) => {
                     let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
                     let message = std::ffi::CString::new(reason).expect("no NUL in the reason");

@@ -155,11 +155,18 @@ fn neighbours_mean(values: &[f64], w: usize, h: usize) -> Vec<f64> {
 }
 
 /// What a render asks for that adaptive sampling would spoil: the reason a
-/// render adaptive by default samples every pixel alike instead, for a
-/// line on the terminal. `part` is a render of some sample indices or some
-/// pixels only, for `prism merge`.
-pub fn uniform_instead(part: bool, target_error: bool) -> Option<&'static str> {
-    if part {
+/// render whose scene asks for it samples every pixel alike instead, for a
+/// line on the terminal. `integrator_adapts`: the integrator takes a
+/// scene's adaptive sampling (`RenderSettings::adaptive`); `part` is a
+/// render of some sample indices or some pixels only, for `prism merge`.
+pub fn uniform_instead(
+    integrator_adapts: bool,
+    part: bool,
+    target_error: bool,
+) -> Option<&'static str> {
+    if !integrator_adapts {
+        Some("uniform sampling: the scene asks for adaptive sampling, which only the path tracer takes (`path`; splats have no per-pixel error, and other integrators' counts were not measured to help)")
+    } else if part {
         // Merged parts must each hold the same sample indices in every
         // pixel: adaptive counts differ pixel by pixel.
         Some("uniform sampling: this is a part of a render (a sample range or a tile), and `prism merge` joins parts that hold the same samples in every pixel")

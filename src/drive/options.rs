@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::progress::ProgressCounts;
-use crate::film::{Film, FilmSettings, Sampling};
+use crate::film::{Film, FilmSettings};
 
 /// One render of a loaded scene: which samples, where, on how many threads.
 /// `RenderOptions::new` takes the scene file's defaults; a caller changes
@@ -58,7 +58,7 @@ impl std::fmt::Debug for PassHook {
 
 impl RenderOptions {
     /// The whole film at the scene file's samples per pixel and seed,
-    /// adaptive only where the scene file says so (`film.sampling`).
+    /// sampled uniformly (`RenderSettings::options` reads `film.sampling`).
     pub fn new(f: &FilmSettings) -> Self {
         Self {
             samples: 0..f.spp,
@@ -72,7 +72,7 @@ impl RenderOptions {
             target_error: None,
             log_every: Duration::from_secs(5),
             after_pass: None,
-            adaptive: f.sampling == Some(Sampling::Adaptive),
+            adaptive: false,
         }
     }
 

@@ -398,18 +398,6 @@ impl Integrator {
         matches!(self, Integrator::Path(_))
     }
 
-    /// Whether its renders spread their samples adaptively when neither the
-    /// scene nor the caller says (`film.sampling`, `--uniform`): where the
-    /// adaptive pilot lowers relMSE × CPU time (docs/features.md,
-    /// "Adaptive sampling"). Only integrators whose samples measure their
-    /// own pixel can adapt; photon mapping's cost is its photons, not the
-    /// camera samples adaptive counts would move, and on `path_caustics`
-    /// the counts chased the pilot's sparkle (gem-studio: 17–19% more
-    /// relMSE for the same CPU).
-    pub fn adaptive_by_default(&self) -> bool {
-        matches!(self, Integrator::Path(_))
-    }
-
     /// Refuses a scene its paths cannot follow.
     pub fn check_scene(&self, scene: &Scene) -> Result<(), RenderError> {
         if scene.has_fluorescence() && !self.handles_fluorescence() {

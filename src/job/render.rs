@@ -219,9 +219,9 @@ fn render_options(job: &RenderJob, settings: &RenderSettings) -> Result<RenderOp
     options.log_every = job.log_every;
     options.adaptive = match job.sampling {
         Some(s) => s == Sampling::Adaptive,
-        None if options.adaptive => {
+        None if settings.asks_adaptive() => {
             let part = job.samples.is_some() || job.tile.is_some();
-            match uniform_instead(part, job.target_error.is_some()) {
+            match uniform_instead(settings.adaptive(), part, job.target_error.is_some()) {
                 Some(reason) => {
                     eprintln!("{reason}");
                     false

@@ -30,7 +30,7 @@ use crate::camera::Camera;
 use crate::film::{FilmSettings, Gamut, Tonemap};
 use crate::integrator::{Integrator, IntegratorKind, Strategy};
 use crate::material::{Cutout, Material};
-use crate::render::{RenderError, RenderOptions, RenderSettings};
+use crate::render::{RenderOptions, RenderSettings};
 use crate::scene::{Scene, SceneGeometry};
 use crate::spectrum::Spectrum;
 use format::SceneFile;
@@ -314,12 +314,7 @@ impl Loader {
         integrator
             .as_integrate()
             .check(camera, film, &RenderOptions::new(film))
-            .map_err(|e| match e {
-                RenderError::SplatAdaptive(_) => {
-                    self.error(format!("`film.sampling` = \"adaptive\": {e}"))
-                }
-                e => self.error(e.to_string()),
-            })
+            .map_err(|e| self.error(e.to_string()))
     }
 
     fn error(&self, message: impl Into<String>) -> SceneError {

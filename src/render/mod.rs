@@ -29,9 +29,8 @@ pub struct RenderSettings {
 
 impl RenderSettings {
     /// One render of the whole film at the settings' samples and seed,
-    /// sampled as the scene file says (`film.sampling`) or, where it says
-    /// nothing, as the integrator does best
-    /// ([`Integrator::adaptive_by_default`]).
+    /// sampled as the scene file says where the integrator takes it
+    /// ([`Self::adaptive`]).
     pub fn options(&self) -> RenderOptions {
         RenderOptions {
             adaptive: self.adaptive(),
@@ -39,13 +38,20 @@ impl RenderSettings {
         }
     }
 
+    /// Whether the scene asks for adaptive sampling (`film.sampling`).
+    /// Not the default: relMSE × CPU time gained 4–7% on the Cornell Box
+    /// and lost up to 1.9× on others (docs/features.md, "Adaptive
+    /// sampling").
+    pub fn asks_adaptive(&self) -> bool {
+        self.film.sampling == Some(Sampling::Adaptive)
+    }
+
     /// Whether a render of these settings spreads its samples adaptively
-    /// unless its caller says otherwise.
+    /// unless its caller says otherwise: where the scene asks and the
+    /// integrator is the path tracer, the one it was measured to help
+    /// (splats cannot adapt; `path_caustics` lost 1.2× on gem-studio).
     pub fn adaptive(&self) -> bool {
-        match self.film.sampling {
-            Some(s) => s == Sampling::Adaptive,
-            None => self.integrator.adaptive_by_default(),
-        }
+        self.asks_adaptive() && matches!(self.integrator, Integrator::Path(_))
     }
 }
 
