@@ -10,7 +10,7 @@ fn prism() -> Command {
     Command::new(env!("CARGO_BIN_EXE_prism"))
 }
 
-const SCENE: &str = r#"
+pub(crate) const SCENE: &str = r#"
 [camera]
 position = [0, 1, -4]
 look_at = [0, 0.5, 0]

@@ -6,26 +6,13 @@
 use std::path::Path;
 use std::process::Command;
 
-const SCENE: &str = r#"
-[camera]
-position = [0, 1, -4]
-look_at = [0, 0.5, 0]
-
-[film]
-resolution = [32, 24]
-spp = 16
-
-[[shape]]
-type = "quad"
-vertices = [[-5, 0, -5], [-5, 0, 5], [5, 0, 5], [5, 0, -5]]
-
-[[shape]]
-type = "sphere"
-center = [0, 3, 0]
-radius = 0.5
-emission = "D65"
-emission_scale = 10
-"#;
+/// The command-line tests' scene (a floor under a lamp), larger and with
+/// more samples: 16 a pixel leave the adaptive counts room to differ.
+fn scene() -> String {
+    crate::cli::SCENE
+        .replace("resolution = [24, 16]", "resolution = [32, 24]")
+        .replace("spp = 4", "spp = 16")
+}
 
 /// Renders `scene` (text) with `args` in a new folder; the stderr and the
 /// per-pixel sample counts of the spectral EXR.
@@ -52,14 +39,14 @@ fn uniform(counts: &[f32], spp: f32) -> bool {
 }
 
 fn with_film_key(key: &str) -> String {
-    SCENE.replace("spp = 16", &format!("spp = 16\n{key}"))
+    scene().replace("spp = 16", &format!("spp = 16\n{key}"))
 }
 
 const ADAPTIVE: &str = "sampling = \"adaptive\"";
 
 #[test]
 fn scenes_and_the_command_line_choose_adaptive_sampling() {
-    let (err, counts, adaptive) = render(SCENE, &[]);
+    let (err, counts, adaptive) = render(&scene(), &[]);
     assert!(!adaptive && uniform(&counts, 16.0), "{err}");
     assert!(!err.contains("uniform sampling"), "not a fallback: {err}");
     for (args, key) in [(&[][..], ADAPTIVE), (&["--adaptive"][..], "")] {
@@ -103,7 +90,7 @@ fn parts_of_a_render_and_error_targets_sample_uniformly_and_say_so() {
 #[test]
 fn other_integrators_sample_uniformly_and_say_so_where_the_scene_asks() {
     for kind in ["bdpt", "light", "sppm", "path_caustics"] {
-        let (err, counts, adaptive) = render(SCENE, &["--integrator", kind]);
+        let (err, counts, adaptive) = render(&scene(), &["--integrator", kind]);
         assert!(!adaptive && uniform(&counts, 16.0), "{kind}: {err}");
         // The default is not a fallback: no line about it.
         assert!(!err.contains("uniform sampling"), "{kind}: {err}");

@@ -12,7 +12,7 @@ use pyo3::types::PyDict;
 use prism::film::{Gamut, Tonemap};
 use prism::integrator::{IntegratorKind, Strategy};
 use prism::load::{Loaded, Overrides};
-use prism::render::{uniform_instead, ProgressCounts};
+use prism::render::ProgressCounts;
 
 use crate::image::NativeImage;
 use crate::{RenderError, SceneError};
@@ -321,28 +321,16 @@ pub fn render(
         }
         options.target_error = Some(t);
     }
-    // As the command line: adaptive where the scene or integrator says,
-    // unless this is a part of a render or has an error target (a warning
-    // says so).
-    options.adaptive = match adaptive {
-        Some(a) => a,
-        None if settings.asks_adaptive() => {
-            match uniform_instead(
-                settings.adaptive(),
-                samples.is_some(),
-                target_error.is_some(),
-            ) {
-                Some(reason) => {
-                    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
-                    let message = std::ffi::CString::new(reason).expect("no NUL in the reason");
-                    PyErr::warn(py, category.as_any(), &message, 2)?;
-                    false
-                }
-                None => true,
-            }
-        }
-        None => false,
-    };
+    // As the command line, with a warning where the scene's adaptive
+    // sampling cannot be had.
+    let (adaptive, why_uniform) =
+        settings.adaptive_for(adaptive, samples.is_some(), target_error.is_some());
+    if let Some(reason) = why_uniform {
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        let message = std::ffi::CString::new(reason).expect("no NUL in the reason");
+        PyErr::warn(py, category.as_any(), &message, 2)?;
+    }
+    options.adaptive = adaptive;
     let counts = Arc::new(ProgressCounts::default());
     let cancel = Arc::new(AtomicBool::new(false));
     options.progress_counts = Some(counts.clone());

@@ -32,8 +32,8 @@ pub struct FilmSettings {
     pub spp: u32,
     /// Seed of a render that does not choose its own.
     pub seed: u64,
-    /// How a render spreads its samples, where the scene says; None: as
-    /// its integrator does by default (`Integrator::adaptive_by_default`).
+    /// How a render spreads its samples, where the scene says; None:
+    /// uniformly (`RenderSettings::adaptive`).
     pub sampling: Option<Sampling>,
     pub layout: SpectralLayout,
     /// Write NAME.spectral.exr next to the RGB files.

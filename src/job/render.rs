@@ -11,7 +11,6 @@ use anyhow::{bail, Result};
 
 use super::tev::Tev;
 use super::{check_writable, output_stem, suffixed};
-use crate::drive::adaptive::uniform_instead;
 use crate::film::display::{
     matrix_text, rgb_to_display, ATTR_DISPLAY, ATTR_GAMUT, ATTR_PNG_BITS, ATTR_RGB_TO_DISPLAY,
 };
@@ -54,8 +53,8 @@ pub struct RenderJob {
     pub preview_every: Option<Duration>,
     /// Stream the image to tev at HOST:PORT (`--display`).
     pub display: Option<String>,
-    /// `--adaptive` or `--uniform`; None: the scene's and integrator's
-    /// default (`RenderSettings::adaptive`).
+    /// `--adaptive` or `--uniform`; None: as the scene asks, where the
+    /// render can (`RenderSettings::adaptive_for`).
     pub sampling: Option<Sampling>,
 }
 
@@ -217,20 +216,13 @@ fn render_options(job: &RenderJob, settings: &RenderSettings) -> Result<RenderOp
     options.time_budget = job.time_budget;
     options.target_error = job.target_error;
     options.log_every = job.log_every;
-    options.adaptive = match job.sampling {
-        Some(s) => s == Sampling::Adaptive,
-        None if settings.asks_adaptive() => {
-            let part = job.samples.is_some() || job.tile.is_some();
-            match uniform_instead(settings.adaptive(), part, job.target_error.is_some()) {
-                Some(reason) => {
-                    eprintln!("{reason}");
-                    false
-                }
-                None => true,
-            }
-        }
-        None => false,
-    };
+    let part = job.samples.is_some() || job.tile.is_some();
+    let explicit = job.sampling.map(|s| s == Sampling::Adaptive);
+    let (adaptive, why_uniform) = settings.adaptive_for(explicit, part, job.target_error.is_some());
+    if let Some(reason) = why_uniform {
+        eprintln!("{reason}");
+    }
+    options.adaptive = adaptive;
     Ok(options)
 }
 

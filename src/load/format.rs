@@ -236,7 +236,7 @@ pub struct FilmSpec {
     pub max_depth: Option<u32>,
     /// Seed of every random decision; the same seed gives the same image.
     pub seed: u64,
-    /// "adaptive" or "uniform"; unset, adaptive where the integrator gains.
+    /// "adaptive" or "uniform" (unset: uniform).
     pub sampling: Option<Sampling>,
     /// Exposure in stops applied to the PNG (the EXR stays radiometric).
     pub exposure: f32,

@@ -26,9 +26,8 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use std::sync::Arc;
 
-use crate::camera::Camera;
-use crate::film::{FilmSettings, Gamut, Tonemap};
-use crate::integrator::{Integrator, IntegratorKind, Strategy};
+use crate::film::{Gamut, Tonemap};
+use crate::integrator::{IntegratorKind, Strategy};
 use crate::material::{Cutout, Material};
 use crate::render::{RenderOptions, RenderSettings};
 use crate::scene::{Scene, SceneGeometry};
@@ -303,20 +302,6 @@ impl Loader {
 
     /// An error naming the scene file; a key that the command line set is
     /// named with its flag.
-    /// Refuses now, naming the file, rather than when rendering, what the
-    /// integrator's loop cannot do with this camera and film.
-    fn check_loop(
-        &self,
-        integrator: &Integrator,
-        camera: &Camera,
-        film: &FilmSettings,
-    ) -> Result<(), SceneError> {
-        integrator
-            .as_integrate()
-            .check(camera, film, &RenderOptions::new(film))
-            .map_err(|e| self.error(e.to_string()))
-    }
-
     fn error(&self, message: impl Into<String>) -> SceneError {
         let mut message = message.into();
         for (key, flag) in self.overridden.borrow().iter() {
@@ -413,7 +398,12 @@ impl Loader {
         let film = self.film(&file)?;
         let integrator = self.integrator(&mut file)?;
         let camera = self.camera(&file, &film)?;
-        self.check_loop(&integrator, &camera, &film)?;
+        // What the integrator's loop cannot do with this camera and film
+        // is refused now, naming the file, rather than when rendering.
+        integrator
+            .as_integrate()
+            .check(&camera, &film, &RenderOptions::new(&film))
+            .map_err(|e| self.error(e.to_string()))?;
 
         let mut material_index = BTreeMap::new();
         let mut materials = Vec::new();

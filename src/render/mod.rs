@@ -46,6 +46,29 @@ impl RenderSettings {
         self.film.sampling == Some(Sampling::Adaptive)
     }
 
+    /// Whether a render samples adaptively: as its caller says
+    /// (`explicit`), else as the scene asks where the render can use it.
+    /// The line to print where the scene asked and it cannot
+    /// ([`uniform_instead`]): `part` is a sample range or tile for `prism
+    /// merge`, `target_error` a render stopped by its estimated error.
+    pub fn adaptive_for(
+        &self,
+        explicit: Option<bool>,
+        part: bool,
+        target_error: bool,
+    ) -> (bool, Option<&'static str>) {
+        match explicit {
+            Some(a) => (a, None),
+            None if self.asks_adaptive() => {
+                match uniform_instead(self.adaptive(), part, target_error) {
+                    Some(reason) => (false, Some(reason)),
+                    None => (true, None),
+                }
+            }
+            None => (false, None),
+        }
+    }
+
     /// Whether a render of these settings spreads its samples adaptively
     /// unless its caller says otherwise: where the scene asks and the
     /// integrator is the path tracer, the one it was measured to help
