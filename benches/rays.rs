@@ -153,6 +153,13 @@ fn bench_terrain(c: &mut Criterion) {
                     .count()
             })
         });
+        group.bench_function(format!("{name}, as a stream"), |b| {
+            let mut hits = vec![None; rays.len()];
+            b.iter(|| {
+                scene.bvh().intersect_stream(rays, &mut hits);
+                hits.iter().filter(|h| h.is_some()).count()
+            })
+        });
         group.bench_function(format!("{name}, with shading data"), |b| {
             b.iter(|| rays.iter().filter(|r| scene.intersect(r).is_some()).count())
         });

@@ -9,20 +9,12 @@
 use glam::Vec3;
 
 use super::huge_pages::HugeArray;
-use super::lanes::Lanes;
-use super::triangle::{RayShear, TriangleHit};
-use super::triangle4::{self, RayShear4, Triangle4};
-use super::{gamma, Aabb, Ray};
+use super::triangle::TriangleHit;
+use super::triangle4::Triangle4;
+use super::{Aabb, Ray};
 
 /// Children per node: a multiple of four (each four share SIMD slab tests).
 const WIDTH: usize = 8;
-
-/// The lanes a slab test runs on: all of a node's children at once with
-/// AVX2, four at a time otherwise.
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-type Slab = super::lanes::F32x8;
-#[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-type Slab = glam::Vec4;
 
 /// A wide node: the children's boxes as structure of arrays (`lo[axis][k]`
 /// is child k's lower bound on that axis), and per child either a node
@@ -44,11 +36,6 @@ pub struct Bvh {
     packets: HugeArray<Triangle4>,
     bounds: Aabb,
 }
-
-/// Traversal stack entries: up to WIDTH − 1 per wide level, and a wide
-/// level per binary level at worst (SAH_MAX_DEPTH plus a median-split tree
-/// over 2³² primitives).
-const STACK_SIZE: usize = (WIDTH - 1) * 80;
 
 impl Bvh {
     /// Builds over triangles. Returns the hierarchy and the order in which
@@ -98,182 +85,31 @@ impl Bvh {
         self.traverse::<true>(ray).is_some()
     }
 
-    /// Visits nodes front to back (children sorted by entry distance).
-    /// With `ANY_HIT` it stops at the first hit.
-    #[inline]
-    fn traverse<const ANY_HIT: bool>(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
-        // A NaN in the ray would pass every slab test (SIMD min/max drop
-        // NaN operands), empty slots included, and never end.
-        if self.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
-            return None;
-        }
-        let ray_shear = RayShear::new(ray);
-        let shear = RayShear4::new(&ray_shear);
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        let shear8 = triangle4::RayShear8::new(&ray_shear);
-        let inv = ray.dir.recip();
-        let o = [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat);
-        let id = [inv.x, inv.y, inv.z].map(Slab::splat);
-        // The far distance is enlarged by 2γ(3): conservative against rounding.
-        let far_scale = Slab::splat(1.0 + 2.0 * gamma(3));
-        let mut t_max = ray.t_max;
-        let mut closest = None;
-        // Interior nodes still to visit, with their entry distances. Left
-        // uninitialised: zeroing 2 KB per ray cost 5% of a Cornell render.
-        let mut stack = [const { std::mem::MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
-        let mut top = 0usize;
-        let mut current = 0u32;
-        loop {
-            let node = &self.nodes[current as usize];
-            let mut mask = 0u32;
-            let mut near = [0f32; WIDTH];
-            for g in (0..WIDTH).step_by(Slab::WIDTH) {
-                let slab = |bounds: &[[f32; WIDTH]; 3], axis: usize| {
-                    (Slab::load(&bounds[axis][g..]) - o[axis]) * id[axis]
-                };
-                let (tx0, tx1) = (slab(&node.lo, 0), slab(&node.hi, 0));
-                let (ty0, ty1) = (slab(&node.lo, 1), slab(&node.hi, 1));
-                let (tz0, tz1) = (slab(&node.lo, 2), slab(&node.hi, 2));
-                let entry = tx0
-                    .min(tx1)
-                    .max(ty0.min(ty1))
-                    .max(tz0.min(tz1))
-                    .max(Slab::splat(0.0));
-                let exit = (tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)) * far_scale)
-                    .min(Slab::splat(t_max));
-                // An empty slot's entry is +∞, which also "meets" an exit at
-                // +∞ on an unbounded ray: finite entries only.
-                let hit = entry.cmple(exit) & entry.cmplt(Slab::splat(f32::INFINITY));
-                mask |= Slab::bits(hit) << g;
-                near[g..g + Slab::WIDTH].copy_from_slice(&entry.to_array()[..Slab::WIDTH]);
-            }
-            // Leaves are tested at once, nearest first; hit nodes are sorted
-            // nearest first.
-            let mut nodes = [(0u32, 0f32); WIDTH];
-            let mut n = 0;
-            let mut leaves = [(0u32, 0u32, 0f32); WIDTH];
-            let mut nl = 0;
-            while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                if node.count[i] > 0 {
-                    let entry = (node.child[i], node.count[i], near[i]);
-                    insert_by_distance(&mut leaves, &mut nl, entry, |e| e.2);
-                } else {
-                    let entry = (node.child[i], near[i]);
-                    insert_by_distance(&mut nodes, &mut n, entry, |e| e.1);
-                }
-            }
-            // Fetch the child nodes from memory while the leaves are tested
-            // (on big meshes, waiting for nodes is most of a ray's time).
-            for &(child, _) in &nodes[..n] {
-                prefetch(&self.nodes[child as usize]);
-            }
-            for &(first, count, t_enter) in &leaves[..nl] {
-                if t_enter > t_max {
-                    continue;
-                }
-                let packets = &self.packets[first as usize..][..count.div_ceil(4) as usize];
-                // Leaves of five to eight triangles (MAX_LEAF) as one test
-                // of eight lanes where there is AVX2, two of four elsewhere.
-                #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-                if let [p, q] = packets {
-                    let lanes = (1u32 << count) - 1;
-                    if let Some((lane, hit)) =
-                        triangle4::intersect_pair(&shear8, p, q, lanes, t_max)
-                    {
-                        let prim = packets[lane / 4].prim(lane % 4);
-                        if ANY_HIT {
-                            return Some((prim, hit));
-                        }
-                        t_max = hit.t;
-                        closest = Some((prim, hit));
-                    }
-                    continue;
-                }
-                let mut left = count;
-                for packet in packets {
-                    let lanes = (1u32 << left.min(4)) - 1;
-                    left = left.saturating_sub(4);
-                    if let Some((lane, hit)) = triangle4::intersect(&shear, packet, lanes, t_max) {
-                        let prim = packet.prim(lane);
-                        if ANY_HIT {
-                            return Some((prim, hit));
-                        }
-                        t_max = hit.t;
-                        closest = Some((prim, hit));
-                    }
-                }
-            }
-            // Go on with the nearest node; keep the others, farthest deepest.
-            for k in (1..n).rev() {
-                stack[top].write(nodes[k]);
-                top += 1;
-            }
-            if n > 0 && nodes[0].1 <= t_max {
-                current = nodes[0].0;
-                continue;
-            }
-            loop {
-                if top == 0 {
-                    return closest;
-                }
-                top -= 1;
-                // SAFETY: entries below `top` were all written above.
-                let (node, t_enter) = unsafe { stack[top].assume_init() };
-                if t_enter <= t_max {
-                    current = node;
-                    break;
-                }
-            }
-        }
+    /// `intersect` for every ray of `rays` (`hits[i]` answers `rays[i]`),
+    /// their walks interleaved so that their waits for memory overlap:
+    /// faster than one by one where the tree outgrows the caches, and the
+    /// same hits, bit for bit.
+    pub fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<(u32, TriangleHit)>]) {
+        assert_eq!(rays.len(), hits.len(), "one answer per ray");
+        self.traverse_stream::<false>(rays, |i, hit| hits[i] = hit);
     }
-}
 
-/// Asks for every cache line of a node ahead of its use.
-#[inline(always)]
-fn prefetch(node: &WideNode) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = node as *const WideNode as *const i8;
-        // Nodes are aligned to their 64-byte lines.
-        for offset in (0..std::mem::size_of::<WideNode>()).step_by(64) {
-            // SAFETY: a prefetch only hints the cache; the line is the node's.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(offset)) };
-        }
+    /// `occluded` for every ray of `rays`, interleaved as `intersect_stream`.
+    pub fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "one answer per ray");
+        self.traverse_stream::<true>(rays, |i, hit| occluded[i] = hit.is_some());
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = node;
-}
-
-/// Inserts `entry` into the first `*len` entries of `list`, kept sorted
-/// nearest first by `distance` (insertion sort: at most WIDTH).
-#[inline]
-fn insert_by_distance<T: Copy>(
-    list: &mut [T; WIDTH],
-    len: &mut usize,
-    entry: T,
-    distance: impl Fn(&T) -> f32,
-) {
-    let t = distance(&entry);
-    let mut j = *len;
-    while j > 0 && distance(&list[j - 1]) > t {
-        list[j] = list[j - 1];
-        j -= 1;
-    }
-    list[j] = entry;
-    *len += 1;
 }
 
 mod build;
+mod traverse;
 
 use build::{build_boxes, pack_leaves};
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::triangle;
+    use crate::geometry::triangle::{self, RayShear};
 
     fn random_triangles(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
         let mut s = seed;
@@ -348,6 +184,45 @@ mod tests {
             }
             assert_eq!(bvh.occluded(&ray), brute.is_some());
         }
+    }
+
+    #[test]
+    fn a_stream_finds_each_rays_hit_bit_for_bit() {
+        let tris = random_triangles(20_000, 11);
+        let (bvh, _) = Bvh::build(&tris);
+        let ends = random_triangles(3_000, 5);
+        let mut rays: Vec<Ray> = ends
+            .iter()
+            .map(|r| {
+                let mut ray = Ray::new(r[0] * 1.2 - 1.0, (r[1] - r[0] * 1.2 + 1.0).normalize());
+                ray.t_max = 4.0 * r[2].x.fract() + 0.1;
+                ray
+            })
+            .collect();
+        // Rays that can meet nothing, among the others.
+        rays[17].dir = Vec3::NAN;
+        rays[2999].origin.x = f32::INFINITY;
+        let mut hits = vec![None; rays.len()];
+        bvh.intersect_stream(&rays, &mut hits);
+        let mut occluded = vec![false; rays.len()];
+        bvh.occluded_stream(&rays, &mut occluded);
+        let bits = |h: Option<(u32, TriangleHit)>| {
+            h.map(|(p, h)| (p, h.t.to_bits(), h.b.map(f32::to_bits)))
+        };
+        let mut met = 0;
+        for (i, ray) in rays.iter().enumerate() {
+            let one = bvh.intersect(ray);
+            met += one.is_some() as usize;
+            assert_eq!(bits(hits[i]), bits(one), "ray {i}");
+            assert_eq!(occluded[i], bvh.occluded(ray), "ray {i}");
+        }
+        // Neither all nor none: the rays test both answers.
+        assert!(met > 300 && met < 2700, "{met} of 3000 rays hit");
+        // An empty tree answers every ray.
+        let (empty, _) = Bvh::build(&[]);
+        let mut hits = vec![Some((0, hits.iter().flatten().next().unwrap().1)); 5];
+        empty.intersect_stream(&rays[..5], &mut hits);
+        assert!(hits.iter().all(Option::is_none));
     }
 
     #[test]

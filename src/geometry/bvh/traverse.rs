@@ -1,0 +1,436 @@
+//! Walking the wide tree: one ray at a time, or a stream of rays whose
+//! walks take turns, node by node. On a big mesh a ray spends most of its
+//! time waiting for nodes and triangles to arrive from memory; a stream
+//! asks for each ray's next node and leaves and visits the other rays'
+//! meanwhile, so several waits overlap. Both make the same tests in the
+//! same order and find the same hits, bit for bit. The single ray keeps
+//! its state in locals rather than in a paused `Walk`: as a loop over
+//! `Walk` turns it took 3% more instructions on the Cornell Box, whose
+//! tree fits in the first-level cache.
+
+use std::mem::MaybeUninit;
+
+use super::{Bvh, WideNode, WIDTH};
+use crate::geometry::lanes::Lanes;
+use crate::geometry::triangle::{RayShear, TriangleHit};
+use crate::geometry::triangle4::{self, RayShear4};
+use crate::geometry::{gamma, Ray};
+
+/// The lanes a slab test runs on: all of a node's children at once with
+/// AVX2, four at a time otherwise.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+type Slab = crate::geometry::lanes::F32x8;
+#[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+type Slab = glam::Vec4;
+
+/// Traversal stack entries: up to WIDTH − 1 per wide level, and a wide
+/// level per binary level at worst (SAH_MAX_DEPTH plus a median-split tree
+/// over 2³² primitives).
+const STACK_SIZE: usize = (WIDTH - 1) * 80;
+
+/// Rays whose walks a stream interleaves: enough for their node loads to
+/// cover one another's waits, few enough that their stacks' tops stay in
+/// the first-level cache.
+const IN_FLIGHT: usize = 8;
+
+/// One ray's walk, paused between node visits.
+struct Walk {
+    shear: LeafShear,
+    origin: [Slab; 3],
+    inv_dir: [Slab; 3],
+    t_max: f32,
+    closest: Option<(u32, TriangleHit)>,
+    /// The node to visit next.
+    current: u32,
+    /// Interior nodes still to visit, with their entry distances. Left
+    /// uninitialised: zeroing 2 KB per ray cost 5% of a Cornell render.
+    stack: [MaybeUninit<(u32, f32)>; STACK_SIZE],
+    top: usize,
+    /// Leaves of the last node visited, to test on the walk's next turn.
+    leaves: [Leaf; WIDTH],
+    leaf_count: usize,
+}
+
+/// A leaf to test: its first packet, its triangle count, and where the ray
+/// enters its box.
+type Leaf = (u32, u32, f32);
+
+impl Walk {
+    /// A walk that has not started (every field set, the stack left
+    /// uninitialised).
+    #[inline(always)]
+    fn idle() -> Walk {
+        let shear = RayShear::new(&Ray::new(glam::Vec3::ZERO, glam::Vec3::Z));
+        Walk {
+            shear: LeafShear::new(&shear),
+            origin: [Slab::splat(0.0); 3],
+            inv_dir: [Slab::splat(0.0); 3],
+            t_max: 0.0,
+            closest: None,
+            current: 0,
+            stack: [const { MaybeUninit::uninit() }; STACK_SIZE],
+            top: 0,
+            leaves: [(0, 0, 0.0); WIDTH],
+            leaf_count: 0,
+        }
+    }
+
+    /// Starts the walk of `ray` from the root, in place (a walk is
+    /// kilobytes: moving one would copy its stack). False for a ray that
+    /// can meet nothing: a NaN in it would pass every slab test, since
+    /// SIMD min/max drop NaN operands, empty slots included, and never end.
+    #[inline(always)]
+    fn start(&mut self, bvh: &Bvh, ray: &Ray) -> bool {
+        if bvh.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
+            return false;
+        }
+        let shear = RayShear::new(ray);
+        let inv = ray.dir.recip();
+        self.shear = LeafShear::new(&shear);
+        self.origin = [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat);
+        self.inv_dir = [inv.x, inv.y, inv.z].map(Slab::splat);
+        self.t_max = ray.t_max;
+        self.closest = None;
+        self.current = 0;
+        self.top = 0;
+        self.leaf_count = 0;
+        true
+    }
+
+    /// Keeps `nodes` (nearest first) to visit later, the farthest deepest.
+    #[inline(always)]
+    fn push(&mut self, nodes: &[(u32, f32)]) {
+        for &node in nodes.iter().rev() {
+            self.stack[self.top].write(node);
+            self.top += 1;
+        }
+    }
+
+    /// Takes the nearest node left that the closest hit so far does not
+    /// lie before; false when none is left.
+    #[inline(always)]
+    fn pop(&mut self) -> bool {
+        while self.top > 0 {
+            self.top -= 1;
+            // SAFETY: entries below `top` were all written by `push`.
+            let (node, t_enter) = unsafe { self.stack[self.top].assume_init() };
+            if t_enter <= self.t_max {
+                self.current = node;
+                return true;
+            }
+        }
+        false
+    }
+}
+
+impl Bvh {
+    /// Visits nodes front to back (children sorted by entry distance).
+    /// With `ANY_HIT` it stops at the first hit.
+    #[inline]
+    pub(super) fn traverse<const ANY_HIT: bool>(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
+        // A NaN in the ray would pass every slab test (SIMD min/max drop
+        // NaN operands), empty slots included, and never end.
+        if self.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
+            return None;
+        }
+        let ray_shear = RayShear::new(ray);
+        let shear = LeafShear::new(&ray_shear);
+        let inv = ray.dir.recip();
+        let o = [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat);
+        let id = [inv.x, inv.y, inv.z].map(Slab::splat);
+        let mut t_max = ray.t_max;
+        let mut closest = None;
+        // Interior nodes still to visit, with their entry distances. Left
+        // uninitialised: zeroing 2 KB per ray cost 5% of a Cornell render.
+        let mut stack = [const { std::mem::MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
+        let mut top = 0usize;
+        let mut current = 0u32;
+        loop {
+            let node = &self.nodes[current as usize];
+            let (mask, near) = slab_test(node, &o, &id, t_max);
+            // Leaves are tested at once, nearest first; hit nodes are sorted
+            // nearest first.
+            let (mut nodes, mut n) = ([(0u32, 0f32); WIDTH], 0);
+            let (mut leaves, mut nl) = ([(0u32, 0u32, 0f32); WIDTH], 0);
+            sort_children(
+                node,
+                mask,
+                &near,
+                (&mut nodes, &mut n),
+                (&mut leaves, &mut nl),
+            );
+            // Fetch the child nodes from memory while the leaves are tested
+            // (on big meshes, waiting for nodes is most of a ray's time).
+            for &(child, _) in &nodes[..n] {
+                prefetch_bytes(std::slice::from_ref(&self.nodes[child as usize]));
+            }
+            for &(first, count, t_enter) in &leaves[..nl] {
+                if t_enter > t_max {
+                    continue;
+                }
+                if let Some((prim, hit)) = self.test_leaf(&shear, first, count, t_max) {
+                    if ANY_HIT {
+                        return Some((prim, hit));
+                    }
+                    t_max = hit.t;
+                    closest = Some((prim, hit));
+                }
+            }
+            // Go on with the nearest node; keep the others, farthest deepest.
+            for k in (1..n).rev() {
+                stack[top].write(nodes[k]);
+                top += 1;
+            }
+            if n > 0 && nodes[0].1 <= t_max {
+                current = nodes[0].0;
+                continue;
+            }
+            loop {
+                if top == 0 {
+                    return closest;
+                }
+                top -= 1;
+                // SAFETY: entries below `top` were all written above.
+                let (node, t_enter) = unsafe { stack[top].assume_init() };
+                if t_enter <= t_max {
+                    current = node;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// `traverse` for every ray of `rays`, `IN_FLIGHT` walks taking turns
+    /// node by node; `done(i, hit)` receives ray i's answer, in the order
+    /// the walks end.
+    pub(super) fn traverse_stream<const ANY_HIT: bool>(
+        &self,
+        rays: &[Ray],
+        mut done: impl FnMut(usize, Option<(u32, TriangleHit)>),
+    ) {
+        let mut walks: [Walk; IN_FLIGHT] = std::array::from_fn(|_| Walk::idle());
+        // The ray each walk follows; None once no ray is left for it.
+        let mut following: [Option<usize>; IN_FLIGHT] = [None; IN_FLIGHT];
+        let mut next = 0;
+        // Starts `walk` on the next ray that can meet something (answering
+        // those that cannot); the ray's index, or None when none is left.
+        let mut start_next =
+            |walk: &mut Walk, done: &mut dyn FnMut(usize, Option<(u32, TriangleHit)>)| {
+                while next < rays.len() {
+                    next += 1;
+                    if walk.start(self, &rays[next - 1]) {
+                        return Some(next - 1);
+                    }
+                    done(next - 1, None);
+                }
+                None
+            };
+        for (walk, ray) in walks.iter_mut().zip(&mut following) {
+            *ray = start_next(walk, &mut done);
+        }
+        while following.iter().any(Option::is_some) {
+            for (walk, ray) in walks.iter_mut().zip(&mut following) {
+                let Some(i) = *ray else { continue };
+                if self.step::<ANY_HIT>(walk) {
+                    // Its next node may have sat on the stack for long.
+                    prefetch_bytes(std::slice::from_ref(&self.nodes[walk.current as usize]));
+                } else {
+                    done(i, walk.closest);
+                    *ray = start_next(walk, &mut done);
+                }
+            }
+        }
+    }
+
+    /// One turn of a walk in a stream: visits its current node and moves
+    /// on to the nearest node left, as `traverse` does, except that a node
+    /// whose leaves the ray meets asks for their triangles, keeps all its
+    /// children on the stack and ends the turn; the walk's next turn tests
+    /// those leaves (their triangles have arrived meanwhile) before it
+    /// takes the next node. The same tests in the same order as
+    /// `traverse`. False when the walk is over.
+    #[inline(always)]
+    fn step<const ANY_HIT: bool>(&self, walk: &mut Walk) -> bool {
+        if walk.leaf_count > 0 {
+            let (leaves, count) = (walk.leaves, std::mem::take(&mut walk.leaf_count));
+            for &(first, count, t_enter) in &leaves[..count] {
+                if t_enter > walk.t_max {
+                    continue;
+                }
+                if let Some((prim, hit)) = self.test_leaf(&walk.shear, first, count, walk.t_max) {
+                    walk.t_max = hit.t;
+                    walk.closest = Some((prim, hit));
+                    if ANY_HIT {
+                        return false;
+                    }
+                }
+            }
+            return walk.pop();
+        }
+        let node = &self.nodes[walk.current as usize];
+        let (mask, near) = slab_test(node, &walk.origin, &walk.inv_dir, walk.t_max);
+        let (mut nodes, mut n) = ([(0u32, 0f32); WIDTH], 0);
+        sort_children(
+            node,
+            mask,
+            &near,
+            (&mut nodes, &mut n),
+            (&mut walk.leaves, &mut walk.leaf_count),
+        );
+        for &(child, _) in &nodes[..n] {
+            prefetch_bytes(std::slice::from_ref(&self.nodes[child as usize]));
+        }
+        if walk.leaf_count > 0 {
+            for &(first, count, _) in &walk.leaves[..walk.leaf_count] {
+                prefetch_bytes(&self.packets[first as usize..][..count.div_ceil(4) as usize]);
+            }
+            walk.push(&nodes[..n]);
+            return true;
+        }
+        walk.push(&nodes[1.min(n)..n]);
+        if n > 0 && nodes[0].1 <= walk.t_max {
+            walk.current = nodes[0].0;
+            return true;
+        }
+        walk.pop()
+    }
+
+    /// The nearest hit within (0, t_max) among a leaf's `count`
+    /// triangles, which start at packet `first`.
+    #[inline(always)]
+    fn test_leaf(
+        &self,
+        shear: &LeafShear,
+        first: u32,
+        count: u32,
+        mut t_max: f32,
+    ) -> Option<(u32, TriangleHit)> {
+        let packets = &self.packets[first as usize..][..count.div_ceil(4) as usize];
+        // Leaves of five to eight triangles (MAX_LEAF) as one test of eight
+        // lanes where there is AVX2, two of four elsewhere.
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        if let [p, q] = packets {
+            let lanes = (1u32 << count) - 1;
+            return triangle4::intersect_pair(&shear.eight, p, q, lanes, t_max)
+                .map(|(lane, hit)| (packets[lane / 4].prim(lane % 4), hit));
+        }
+        let mut left = count;
+        let mut closest = None;
+        for packet in packets {
+            let lanes = (1u32 << left.min(4)) - 1;
+            left = left.saturating_sub(4);
+            if let Some((lane, hit)) = triangle4::intersect(&shear.four, packet, lanes, t_max) {
+                t_max = hit.t;
+                closest = Some((packet.prim(lane), hit));
+            }
+        }
+        closest
+    }
+}
+
+/// The ray's values for the triangle tests, splatted across four lanes
+/// and, where there is AVX2, eight.
+struct LeafShear {
+    four: RayShear4,
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    eight: triangle4::RayShear8,
+}
+
+impl LeafShear {
+    #[inline(always)]
+    fn new(shear: &RayShear) -> Self {
+        LeafShear {
+            four: RayShear4::new(shear),
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            eight: triangle4::RayShear8::new(shear),
+        }
+    }
+}
+
+/// Sorts the children in `mask` into interior nodes (child, entry) and
+/// leaves (first packet, count, entry), each nearest first.
+#[inline(always)]
+fn sort_children(
+    node: &WideNode,
+    mut mask: u32,
+    near: &[f32; WIDTH],
+    (nodes, n): (&mut [(u32, f32); WIDTH], &mut usize),
+    (leaves, nl): (&mut [Leaf; WIDTH], &mut usize),
+) {
+    while mask != 0 {
+        let i = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        if node.count[i] > 0 {
+            let entry = (node.child[i], node.count[i], near[i]);
+            insert_by_distance(leaves, nl, entry, |e| e.2);
+        } else {
+            insert_by_distance(nodes, n, (node.child[i], near[i]), |e| e.1);
+        }
+    }
+}
+
+/// Which of a node's children the ray (origin `o`, inverse direction
+/// `id`) meets within [0, t_max], as a bit mask, and where it enters each.
+#[inline(always)]
+fn slab_test(node: &WideNode, o: &[Slab; 3], id: &[Slab; 3], t_max: f32) -> (u32, [f32; WIDTH]) {
+    let mut mask = 0u32;
+    let mut near = [0f32; WIDTH];
+    // The far distance is enlarged by 2γ(3): conservative against rounding.
+    let far_scale = Slab::splat(1.0 + 2.0 * gamma(3));
+    for g in (0..WIDTH).step_by(Slab::WIDTH) {
+        let slab = |bounds: &[[f32; WIDTH]; 3], axis: usize| {
+            (Slab::load(&bounds[axis][g..]) - o[axis]) * id[axis]
+        };
+        let (tx0, tx1) = (slab(&node.lo, 0), slab(&node.hi, 0));
+        let (ty0, ty1) = (slab(&node.lo, 1), slab(&node.hi, 1));
+        let (tz0, tz1) = (slab(&node.lo, 2), slab(&node.hi, 2));
+        let entry = tx0
+            .min(tx1)
+            .max(ty0.min(ty1))
+            .max(tz0.min(tz1))
+            .max(Slab::splat(0.0));
+        let exit =
+            (tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)) * far_scale).min(Slab::splat(t_max));
+        // An empty slot's entry is +∞, which also "meets" an exit at +∞ on
+        // an unbounded ray: finite entries only.
+        let hit = entry.cmple(exit) & entry.cmplt(Slab::splat(f32::INFINITY));
+        mask |= Slab::bits(hit) << g;
+        near[g..g + Slab::WIDTH].copy_from_slice(&entry.to_array()[..Slab::WIDTH]);
+    }
+    (mask, near)
+}
+
+/// Asks for every cache line of `items` ahead of their use.
+#[inline(always)]
+fn prefetch_bytes<T>(items: &[T]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let p = items.as_ptr() as *const i8;
+        for offset in (0..std::mem::size_of_val(items)).step_by(64) {
+            // SAFETY: a prefetch only hints the cache; the line is the items'.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(offset)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = items;
+}
+
+/// Inserts `entry` into the first `*len` entries of `list`, kept sorted
+/// nearest first by `distance` (insertion sort: at most WIDTH).
+#[inline]
+fn insert_by_distance<T: Copy>(
+    list: &mut [T; WIDTH],
+    len: &mut usize,
+    entry: T,
+    distance: impl Fn(&T) -> f32,
+) {
+    let t = distance(&entry);
+    let mut j = *len;
+    while j > 0 && distance(&list[j - 1]) > t {
+        list[j] = list[j - 1];
+        j -= 1;
+    }
+    list[j] = entry;
+    *len += 1;
+}
