@@ -35,9 +35,7 @@ const IN_FLIGHT: usize = 8;
 
 /// One ray's walk, paused between node visits.
 struct Walk {
-    shear: LeafShear,
-    origin: [Slab; 3],
-    inv_dir: [Slab; 3],
+    ray: RayLanes,
     t_max: f32,
     closest: Option<(u32, TriangleHit)>,
     /// The node to visit next.
@@ -60,11 +58,8 @@ impl Walk {
     /// uninitialised).
     #[inline(always)]
     fn idle() -> Walk {
-        let shear = RayShear::new(&Ray::new(glam::Vec3::ZERO, glam::Vec3::Z));
         Walk {
-            shear: LeafShear::new(&shear),
-            origin: [Slab::splat(0.0); 3],
-            inv_dir: [Slab::splat(0.0); 3],
+            ray: RayLanes::new(&Ray::new(glam::Vec3::ZERO, glam::Vec3::Z)),
             t_max: 0.0,
             closest: None,
             current: 0,
@@ -75,26 +70,16 @@ impl Walk {
         }
     }
 
-    /// Starts the walk of `ray` from the root, in place (a walk is
-    /// kilobytes: moving one would copy its stack). False for a ray that
-    /// can meet nothing: a NaN in it would pass every slab test, since
-    /// SIMD min/max drop NaN operands, empty slots included, and never end.
+    /// Starts the walk of `ray` (which `Bvh::may_meet`) from the root, in
+    /// place: a walk is kilobytes, and moving one would copy its stack.
     #[inline(always)]
-    fn start(&mut self, bvh: &Bvh, ray: &Ray) -> bool {
-        if bvh.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
-            return false;
-        }
-        let shear = RayShear::new(ray);
-        let inv = ray.dir.recip();
-        self.shear = LeafShear::new(&shear);
-        self.origin = [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat);
-        self.inv_dir = [inv.x, inv.y, inv.z].map(Slab::splat);
+    fn start(&mut self, ray: &Ray) {
+        self.ray = RayLanes::new(ray);
         self.t_max = ray.t_max;
         self.closest = None;
         self.current = 0;
         self.top = 0;
         self.leaf_count = 0;
-        true
     }
 
     /// Keeps `nodes` (nearest first) to visit later, the farthest deepest.
@@ -128,16 +113,10 @@ impl Bvh {
     /// With `ANY_HIT` it stops at the first hit.
     #[inline]
     pub(super) fn traverse<const ANY_HIT: bool>(&self, ray: &Ray) -> Option<(u32, TriangleHit)> {
-        // A NaN in the ray would pass every slab test (SIMD min/max drop
-        // NaN operands), empty slots included, and never end.
-        if self.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
+        if !self.may_meet(ray) {
             return None;
         }
-        let ray_shear = RayShear::new(ray);
-        let shear = LeafShear::new(&ray_shear);
-        let inv = ray.dir.recip();
-        let o = [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat);
-        let id = [inv.x, inv.y, inv.z].map(Slab::splat);
+        let lanes = RayLanes::new(ray);
         let mut t_max = ray.t_max;
         let mut closest = None;
         // Interior nodes still to visit, with their entry distances. Left
@@ -147,7 +126,7 @@ impl Bvh {
         let mut current = 0u32;
         loop {
             let node = &self.nodes[current as usize];
-            let (mask, near) = slab_test(node, &o, &id, t_max);
+            let (mask, near) = slab_test(node, &lanes, t_max);
             // Leaves are tested at once, nearest first; hit nodes are sorted
             // nearest first.
             let (mut nodes, mut n) = ([(0u32, 0f32); WIDTH], 0);
@@ -168,7 +147,7 @@ impl Bvh {
                 if t_enter > t_max {
                     continue;
                 }
-                if let Some((prim, hit)) = self.test_leaf(&shear, first, count, t_max) {
+                if let Some((prim, hit)) = self.test_leaf(&lanes, first, count, t_max) {
                     if ANY_HIT {
                         return Some((prim, hit));
                     }
@@ -209,37 +188,48 @@ impl Bvh {
         mut done: impl FnMut(usize, Option<(u32, TriangleHit)>),
     ) {
         let mut walks: [Walk; IN_FLIGHT] = std::array::from_fn(|_| Walk::idle());
-        // The ray each walk follows; None once no ray is left for it.
-        let mut following: [Option<usize>; IN_FLIGHT] = [None; IN_FLIGHT];
         let mut next = 0;
-        // Starts `walk` on the next ray that can meet something (answering
-        // those that cannot); the ray's index, or None when none is left.
-        let mut start_next =
-            |walk: &mut Walk, done: &mut dyn FnMut(usize, Option<(u32, TriangleHit)>)| {
-                while next < rays.len() {
-                    next += 1;
-                    if walk.start(self, &rays[next - 1]) {
-                        return Some(next - 1);
-                    }
-                    done(next - 1, None);
-                }
-                None
-            };
-        for (walk, ray) in walks.iter_mut().zip(&mut following) {
-            *ray = start_next(walk, &mut done);
-        }
+        // The ray each walk follows; None once no ray is left for it.
+        let mut following: [Option<usize>; IN_FLIGHT] =
+            std::array::from_fn(|k| self.start_next(&mut walks[k], rays, &mut next, &mut done));
         while following.iter().any(Option::is_some) {
             for (walk, ray) in walks.iter_mut().zip(&mut following) {
                 let Some(i) = *ray else { continue };
-                if self.step::<ANY_HIT>(walk) {
-                    // Its next node may have sat on the stack for long.
-                    prefetch_bytes(std::slice::from_ref(&self.nodes[walk.current as usize]));
-                } else {
+                if !self.step::<ANY_HIT>(walk) {
                     done(i, walk.closest);
-                    *ray = start_next(walk, &mut done);
+                    *ray = self.start_next(walk, rays, &mut next, &mut done);
                 }
             }
         }
+    }
+
+    /// Starts `walk` on the first ray from `rays[*next]` on that may meet
+    /// something, answering those before it that cannot; that ray's
+    /// index, or None when no ray is left.
+    fn start_next(
+        &self,
+        walk: &mut Walk,
+        rays: &[Ray],
+        next: &mut usize,
+        done: &mut impl FnMut(usize, Option<(u32, TriangleHit)>),
+    ) -> Option<usize> {
+        while let Some(ray) = rays.get(*next) {
+            *next += 1;
+            if self.may_meet(ray) {
+                walk.start(ray);
+                return Some(*next - 1);
+            }
+            done(*next - 1, None);
+        }
+        None
+    }
+
+    /// False for a ray that can meet nothing: the tree is empty, or the
+    /// ray has a NaN, which would pass every slab test (SIMD min/max drop
+    /// NaN operands), empty slots included, and never end.
+    #[inline(always)]
+    fn may_meet(&self, ray: &Ray) -> bool {
+        !self.nodes.is_empty() && ray.origin.is_finite() && ray.dir.is_finite()
     }
 
     /// One turn of a walk in a stream: visits its current node and moves
@@ -257,7 +247,7 @@ impl Bvh {
                 if t_enter > walk.t_max {
                     continue;
                 }
-                if let Some((prim, hit)) = self.test_leaf(&walk.shear, first, count, walk.t_max) {
+                if let Some((prim, hit)) = self.test_leaf(&walk.ray, first, count, walk.t_max) {
                     walk.t_max = hit.t;
                     walk.closest = Some((prim, hit));
                     if ANY_HIT {
@@ -265,10 +255,10 @@ impl Bvh {
                     }
                 }
             }
-            return walk.pop();
+            return self.resume(walk);
         }
         let node = &self.nodes[walk.current as usize];
-        let (mask, near) = slab_test(node, &walk.origin, &walk.inv_dir, walk.t_max);
+        let (mask, near) = slab_test(node, &walk.ray, walk.t_max);
         let (mut nodes, mut n) = ([(0u32, 0f32); WIDTH], 0);
         sort_children(
             node,
@@ -292,7 +282,19 @@ impl Bvh {
             walk.current = nodes[0].0;
             return true;
         }
-        walk.pop()
+        self.resume(walk)
+    }
+
+    /// Takes the walk's next node from its stack and asks for it: it may
+    /// have sat there long enough to leave the cache. False when none is
+    /// left.
+    #[inline(always)]
+    fn resume(&self, walk: &mut Walk) -> bool {
+        let more = walk.pop();
+        if more {
+            prefetch_bytes(std::slice::from_ref(&self.nodes[walk.current as usize]));
+        }
+        more
     }
 
     /// The nearest hit within (0, t_max) among a leaf's `count`
@@ -300,7 +302,7 @@ impl Bvh {
     #[inline(always)]
     fn test_leaf(
         &self,
-        shear: &LeafShear,
+        ray: &RayLanes,
         first: u32,
         count: u32,
         mut t_max: f32,
@@ -311,7 +313,7 @@ impl Bvh {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         if let [p, q] = packets {
             let lanes = (1u32 << count) - 1;
-            return triangle4::intersect_pair(&shear.eight, p, q, lanes, t_max)
+            return triangle4::intersect_pair(&ray.shear8, p, q, lanes, t_max)
                 .map(|(lane, hit)| (packets[lane / 4].prim(lane % 4), hit));
         }
         let mut left = count;
@@ -319,7 +321,7 @@ impl Bvh {
         for packet in packets {
             let lanes = (1u32 << left.min(4)) - 1;
             left = left.saturating_sub(4);
-            if let Some((lane, hit)) = triangle4::intersect(&shear.four, packet, lanes, t_max) {
+            if let Some((lane, hit)) = triangle4::intersect(&ray.shear4, packet, lanes, t_max) {
                 t_max = hit.t;
                 closest = Some((packet.prim(lane), hit));
             }
@@ -328,21 +330,28 @@ impl Bvh {
     }
 }
 
-/// The ray's values for the triangle tests, splatted across four lanes
-/// and, where there is AVX2, eight.
-struct LeafShear {
-    four: RayShear4,
+/// A ray's values as the tests take them, splatted across lanes: origin
+/// and inverse direction for the slab tests; the sheared ray for the
+/// triangle tests, four lanes wide and, where there is AVX2, eight.
+struct RayLanes {
+    origin: [Slab; 3],
+    inv_dir: [Slab; 3],
+    shear4: RayShear4,
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    eight: triangle4::RayShear8,
+    shear8: triangle4::RayShear8,
 }
 
-impl LeafShear {
+impl RayLanes {
     #[inline(always)]
-    fn new(shear: &RayShear) -> Self {
-        LeafShear {
-            four: RayShear4::new(shear),
+    fn new(ray: &Ray) -> Self {
+        let shear = RayShear::new(ray);
+        let inv = ray.dir.recip();
+        RayLanes {
+            origin: [ray.origin.x, ray.origin.y, ray.origin.z].map(Slab::splat),
+            inv_dir: [inv.x, inv.y, inv.z].map(Slab::splat),
+            shear4: RayShear4::new(&shear),
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-            eight: triangle4::RayShear8::new(shear),
+            shear8: triangle4::RayShear8::new(&shear),
         }
     }
 }
@@ -369,10 +378,11 @@ fn sort_children(
     }
 }
 
-/// Which of a node's children the ray (origin `o`, inverse direction
-/// `id`) meets within [0, t_max], as a bit mask, and where it enters each.
+/// Which of a node's children the ray meets within [0, t_max], as a bit
+/// mask, and where it enters each.
 #[inline(always)]
-fn slab_test(node: &WideNode, o: &[Slab; 3], id: &[Slab; 3], t_max: f32) -> (u32, [f32; WIDTH]) {
+fn slab_test(node: &WideNode, ray: &RayLanes, t_max: f32) -> (u32, [f32; WIDTH]) {
+    let (o, id) = (&ray.origin, &ray.inv_dir);
     let mut mask = 0u32;
     let mut near = [0f32; WIDTH];
     // The far distance is enlarged by 2γ(3): conservative against rounding.
