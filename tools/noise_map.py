@@ -1,0 +1,108 @@
+#!/usr/bin/env python3
+"""Where a render's noise is: the per-pixel variance of independent seeds.
+
+    python3 tools/noise_map.py SCENE --reference REF.exr [--seeds 12]
+        [--spp 16] [--resolution WxH] [--integrator K] [--threads 2]
+        [--region NAME:X0,Y0,X1,Y1 ...] [--out DIR]
+
+1. Renders SCENE once per seed (`prism render --seed S`), the same sample
+   count each, so that the images are independent estimates.
+2. Per pixel, the variance over the seeds, divided as prism's relMSE
+   divides (by the reference's square + 0.01, REF being a long render of
+   the same scene at the same size): the relMSE a render of those samples
+   owes to noise, pixel by pixel. Its mean is the image's.
+3. Prints that mean, the share of it held by the noisiest 1% / 5% / 20% of
+   pixels, and each --region's share beside its share of the pixels
+   (boxes in pixels, end exclusive); writes DIR/noise.png (the map,
+   brighter where noisier, square-root scaled to its 99.5th percentile)
+   and DIR/noise.npy (the map).
+
+A benchmark helper, not part of the test suite; needs numpy, OpenEXR and
+Pillow (tools/bench-requirements.txt).
+"""
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+REL_MSE_EPSILON = 0.01
+
+
+def read_rgb(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        ch = f.channels()
+        if "RGB" in ch:
+            return np.asarray(ch["RGB"].pixels, dtype=np.float64)
+        return np.stack([np.asarray(ch[c].pixels, dtype=np.float64) for c in "RGB"], -1)
+
+
+def region(text):
+    name, _, box = text.partition(":")
+    try:
+        x0, y0, x1, y1 = (int(v) for v in box.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--region {text!r}: expected NAME:X0,Y0,X1,Y1")
+    return name, (x0, y0, x1, y1)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("scene")
+    ap.add_argument("--reference", required=True, type=Path)
+    ap.add_argument("--seeds", type=int, default=12)
+    ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--resolution")
+    ap.add_argument("--integrator")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--region", type=region, action="append", default=[])
+    ap.add_argument("--out", type=Path, default=Path("noise-map"))
+    ap.add_argument("--prism", default=str(ROOT / "target/release/prism"))
+    args = ap.parse_args()
+    if args.seeds < 2:
+        sys.exit("--seeds: at least 2 (a variance needs two)")
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    images = []
+    for seed in range(1, args.seeds + 1):
+        out = args.out / f"seed-{seed}.exr"
+        cmd = [args.prism, "render", args.scene, "--spp", str(args.spp), "--seed", str(seed),
+               "--threads", str(args.threads), "--uniform", "-q", "-o", str(out)]
+        if args.resolution:
+            cmd += ["--resolution", args.resolution]
+        if args.integrator:
+            cmd += ["--integrator", args.integrator]
+        subprocess.run(cmd, check=True)
+        images.append(read_rgb(out))
+    reference = read_rgb(args.reference)
+    stack = np.stack(images)
+    if stack.shape[1:] != reference.shape:
+        sys.exit(f"the reference is {reference.shape[1]}x{reference.shape[0]}, "
+                 f"the renders {stack.shape[2]}x{stack.shape[1]}")
+    noise = (stack.var(0, ddof=1) / (reference**2 + REL_MSE_EPSILON)).mean(-1)
+    total = noise.sum()
+    print(f"relMSE owed to noise at {args.spp} spp: {noise.mean():.3e} "
+          f"({args.seeds} seeds; mean against the reference {stack.mean() / reference.mean():.4f})")
+    ranked = np.sort(noise.ravel())[::-1]
+    shares = np.cumsum(ranked) / total
+    for top in (0.01, 0.05, 0.20):
+        print(f"  noisiest {top:.0%} of pixels: {shares[int(top * ranked.size) - 1]:.0%} of it")
+    for name, (x0, y0, x1, y1) in args.region:
+        box = noise[y0:y1, x0:x1]
+        print(f"  {name}: {box.sum() / total:.0%} of it on {box.size / noise.size:.0%} of the pixels")
+
+    from PIL import Image
+
+    scale = np.percentile(noise, 99.5)
+    shown = np.sqrt(np.clip(noise / scale, 0.0, 1.0)) if scale > 0 else noise * 0.0
+    Image.fromarray((shown * 255).astype(np.uint8)).save(args.out / "noise.png")
+    np.save(args.out / "noise.npy", noise)
+
+
+if __name__ == "__main__":
+    main()
