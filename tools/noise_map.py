@@ -28,18 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
+from caustics_bench import REL_MSE_EPSILON, read_exr
+
 ROOT = Path(__file__).resolve().parent.parent
-REL_MSE_EPSILON = 0.01
-
-
-def read_rgb(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path)) as f:
-        ch = f.channels()
-        if "RGB" in ch:
-            return np.asarray(ch["RGB"].pixels, dtype=np.float64)
-        return np.stack([np.asarray(ch[c].pixels, dtype=np.float64) for c in "RGB"], -1)
 
 
 def region(text):
@@ -78,8 +69,8 @@ def main():
         if args.integrator:
             cmd += ["--integrator", args.integrator]
         subprocess.run(cmd, check=True)
-        images.append(read_rgb(out))
-    reference = read_rgb(args.reference)
+        images.append(read_exr(out))
+    reference = read_exr(args.reference)
     stack = np.stack(images)
     if stack.shape[1:] != reference.shape:
         sys.exit(f"the reference is {reference.shape[1]}x{reference.shape[0]}, "
