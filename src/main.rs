@@ -13,6 +13,7 @@ use prism::job::{
     RenderJob, SpectrumQuery,
 };
 use prism::load::Overrides;
+use prism::render::Streams;
 
 /// prism: a spectral, physically based path tracer.
 #[derive(Parser)]
@@ -142,6 +143,12 @@ enum Command {
         /// Take the same samples in every pixel (overrides film.sampling).
         #[arg(long)]
         uniform: bool,
+        /// Advance the path tracer's samples as a stream of paths, their
+        /// rays traced together: `auto` where the scene's tree is larger
+        /// than 32 MiB (a tree that fits the caches loses). The
+        /// image is the same, bit for bit.
+        #[arg(long, value_enum, default_value = "auto")]
+        stream: StreamArg,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -302,6 +309,23 @@ enum GamutArg {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+enum StreamArg {
+    Auto,
+    Always,
+    Never,
+}
+
+impl From<StreamArg> for Streams {
+    fn from(s: StreamArg) -> Self {
+        match s {
+            StreamArg::Auto => Streams::Auto,
+            StreamArg::Always => Streams::Always,
+            StreamArg::Never => Streams::Never,
+        }
+    }
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 enum StrategyArg {
     Mis,
     Nee,
@@ -435,6 +459,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             display,
             adaptive,
             uniform,
+            stream,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -466,13 +491,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 preview_every,
                 display,
                 sampling: sampling_flag(adaptive, uniform),
+                streams: stream.into(),
             };
-            let outcome = render_files(&job)?;
-            Ok(if outcome.interrupted {
-                ExitCode::from(130)
-            } else {
-                ExitCode::SUCCESS
-            })
+            // 130: interrupted (Ctrl-C), as a shell reports it.
+            let interrupted = render_files(&job)?.interrupted;
+            Ok(ExitCode::from(if interrupted { 130 } else { 0 }))
         }
         Command::Merge {
             parts,

@@ -42,5 +42,6 @@ mod spheres;
 mod splitting;
 mod sppm;
 mod strategies_agree;
+mod stream;
 mod structure;
 mod tev;

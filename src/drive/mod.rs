@@ -18,10 +18,11 @@ mod options;
 pub mod pixels;
 mod progress;
 pub mod splats;
+pub mod stream;
 pub mod tile;
 
-pub use job::{Outcome, RenderJob};
-pub use options::{PassHook, RenderError, RenderOptions, RenderStats, Stop};
+pub use job::{Outcome, RenderJob, TileRect};
+pub use options::{PassHook, RenderError, RenderOptions, RenderStats, Stop, Streams};
 pub use progress::ProgressCounts;
 
 use crate::film::{tile_spectrum_bytes, AovSample, FilmSettings, PixelSums, AOV_BYTES};

@@ -43,6 +43,21 @@ pub struct RenderOptions {
     /// Spend the samples (`samples.len()` per pixel on average) where a
     /// pilot render finds the relative error high ([`super::adaptive::targets`]).
     pub adaptive: bool,
+    /// Whether the path tracer advances a tile's samples as a stream of
+    /// paths ([`super::stream`]); the image is the same either way.
+    pub streams: Streams,
+}
+
+/// When camera samples advance as a stream of paths, their rays traced
+/// together: the same image, faster only where the scene's tree outgrows
+/// the caches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Streams {
+    /// Where the tree is larger than [`super::stream::STREAM_ABOVE_BYTES`].
+    #[default]
+    Auto,
+    Always,
+    Never,
 }
 
 /// A function the render calls with the film after each pass: every pixel
@@ -73,6 +88,7 @@ impl RenderOptions {
             log_every: Duration::from_secs(5),
             after_pass: None,
             adaptive: false,
+            streams: Streams::Auto,
         }
     }
 

@@ -7,14 +7,16 @@
 //! each pixel's count. A stop (cancel, time budget, error target) ends
 //! after the pass under way: every pixel then has the same samples.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::adaptive::{pilot_spp, progress, targets};
-use super::job::RenderJob;
+use super::job::{RenderJob, TileRect};
 use super::{largest_pass, pass_size, tile, Outcome, PathCounters, PixelSample, RenderError};
 use super::{RenderOptions, RenderStats, Stop, TILE_SIZE};
 use crate::film::convergence::{PrefixError, BYTES_PER_PIXEL};
-use crate::film::{Film, FilmSettings};
+use crate::film::{Film, FilmSettings, FilmTile};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 
@@ -43,6 +45,34 @@ pub trait PixelEstimator: Sync {
         shared: &Self::Shared,
         counters: &mut PathCounters,
     ) -> PixelSample;
+
+    /// The samples `indices(x, y)` of every pixel of `rect` in a tile of a
+    /// pass of `pass_len`: one sample at a time ([`one_at_a_time`]) unless
+    /// the estimator advances them otherwise (as a stream).
+    fn render_tile(
+        &self,
+        job: &RenderJob,
+        rect: TileRect,
+        pass_len: u32,
+        indices: impl Fn(u32, u32) -> Range<u32>,
+        shared: &Self::Shared,
+    ) -> FilmTile {
+        one_at_a_time(self, job, rect, pass_len, indices, shared)
+    }
+}
+
+/// A tile's samples, one at a time (`tile::render_tile`).
+pub fn one_at_a_time<E: PixelEstimator + ?Sized>(
+    estimator: &E,
+    job: &RenderJob,
+    rect: TileRect,
+    pass_len: u32,
+    indices: impl Fn(u32, u32) -> Range<u32>,
+    shared: &E::Shared,
+) -> FilmTile {
+    tile::render_tile(job, rect, pass_len, indices, |x, y, s, _, c| {
+        estimator.sample(job.scene, (x, y), s, shared, c)
+    })
 }
 
 /// Refuses what this driver cannot do: adaptive sample ranges.
@@ -156,9 +186,7 @@ pub fn render<E: PixelEstimator>(job: RenderJob, estimator: &E) -> (Film, Render
         // have nothing to steal.
         tiles.par_iter().with_max_len(1).for_each(|&rect| {
             let indices = |x, y| at.indices(&range, region, requested_spp, x, y);
-            let t = tile::render_tile(&job, rect, range.len() as u32, indices, |x, y, s, _, c| {
-                estimator.sample(job.scene, (x, y), s, &shared, c)
-            });
+            let t = estimator.render_tile(&job, rect, range.len() as u32, indices, &shared);
             let band = &bands[((rect.1 - region[1]) / TILE_SIZE) as usize];
             band.lock().expect("no panic while adding").add_tile(&t);
         });

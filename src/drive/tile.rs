@@ -39,24 +39,37 @@ where
             for index in range {
                 let mut sampler = Sampler::for_sample(seed, x, y, index as u64);
                 let s = sample(x, y, &mut sampler, &mut tile, &mut counters);
-                if s.l.is_finite() {
-                    tile.add_sample(x, y, s.l, &s.wl);
-                } else {
-                    bad += 1;
-                    tile.add_empty_sample(x, y);
-                }
-                if let Some(aovs) = job.aovs {
-                    // A stream of its own: the image is the same with or
-                    // without AOVs.
-                    let mut s = Sampler::for_sample(seed ^ AOV_SEED, x, y, index as u64);
-                    let [dx, dy, _, _] = s.next_4d();
-                    let a = aovs.first_hit(job.scene, x as f32 + dx, y as f32 + dy, &mut s);
-                    tile.add_aov(x, y, &a);
-                }
+                bad += add_sample(job, &mut tile, (x, y, index), &s);
             }
             tile.add_rays(x, y, counters.rays - rays_before);
         }
     }
     job.count(taken, &counters, bad + tile.non_finite_splats);
     tile
+}
+
+/// Adds sample `index` of pixel (`x`, `y`) to `tile`, with its AOVs when
+/// the film records them; 1 if it was dropped (not finite), else 0.
+pub(super) fn add_sample(
+    job: &RenderJob,
+    tile: &mut FilmTile,
+    (x, y, index): (u32, u32, u32),
+    s: &PixelSample,
+) -> u64 {
+    let bad = if s.l.is_finite() {
+        tile.add_sample(x, y, s.l, &s.wl);
+        0
+    } else {
+        tile.add_empty_sample(x, y);
+        1
+    };
+    if let Some(aovs) = job.aovs {
+        // A stream of its own: the image is the same with or without AOVs.
+        let seed = job.options.seed ^ AOV_SEED;
+        let mut s = Sampler::for_sample(seed, x, y, index as u64);
+        let [dx, dy, _, _] = s.next_4d();
+        let a = aovs.first_hit(job.scene, x as f32 + dx, y as f32 + dy, &mut s);
+        tile.add_aov(x, y, &a);
+    }
+    bad
 }

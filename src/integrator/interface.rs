@@ -71,10 +71,42 @@ pub fn trace(
     sampler: Option<&mut Sampler>,
     counters: &mut PathCounters,
 ) -> Next {
+    let first = FirstHit::Unknown;
+    trace_from(
+        scene, ray, first, camera_ray, stack, wl, flight, sampler, counters,
+    )
+}
+
+/// Whether the closest surface along a ray is known before `trace_from`
+/// is called (a stream of rays traced together found it).
+#[derive(Clone, Copy)]
+pub enum FirstHit {
+    Unknown,
+    Known(Option<SurfaceHit>),
+}
+
+/// `trace`, where `first` may already hold `scene.intersect(ray)`: the
+/// same answer, bit for bit, and the same rays counted.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn trace_from(
+    scene: &Scene,
+    ray: &mut Ray,
+    mut first: FirstHit,
+    camera_ray: bool,
+    stack: &mut IorStack,
+    wl: &SampledWavelengths,
+    flight: &mut Flight,
+    sampler: Option<&mut Sampler>,
+    counters: &mut PathCounters,
+) -> Next {
     let mut optical_depth = volume::optical_depth(scene, sampler);
     for _ in 0..=MAX_FALSE_INTERSECTIONS {
         counters.rays += 1;
-        let hit = scene.intersect(ray);
+        let hit = match std::mem::replace(&mut first, FirstHit::Unknown) {
+            FirstHit::Known(hit) => hit,
+            FirstHit::Unknown => scene.intersect(ray),
+        };
         if let Some(m) = scene.has_media().then(|| stack.medium(scene)).flatten() {
             let speed = ray.dir.length();
             let d = hit.map_or(f32::INFINITY, |h| h.t * speed);

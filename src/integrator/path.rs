@@ -6,9 +6,8 @@
 use super::interface::{stack_towards, transmittance};
 use super::ior_stack::{Entry, IorStack};
 use super::walk::{self, Dispersion, Event, Flow, PathContext, Scatterer, Visitor, Walk};
-use super::{camera_ray, CommonParams, Configure, PixelSample, MAX_SPLIT};
 use super::{power_heuristic, PathCounters, Strategy};
-use crate::drive::pixels::PixelEstimator;
+use super::{CommonParams, Configure, MAX_SPLIT};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
@@ -114,43 +113,6 @@ impl Configure for PathTracer {
     }
 }
 
-impl PixelEstimator for PathTracer {
-    type Shared = ();
-
-    fn prepares(&self) -> bool {
-        false
-    }
-
-    fn prepare(&self, _: &Scene, _: u64, _: u32) -> ((), PathCounters) {
-        ((), PathCounters::default())
-    }
-
-    fn shared_bytes(&self, _: &Scene) -> u64 {
-        0
-    }
-
-    fn sample(
-        &self,
-        scene: &Scene,
-        (x, y): (u32, u32),
-        sampler: &mut Sampler,
-        _: &(),
-        counters: &mut PathCounters,
-    ) -> PixelSample {
-        let [dx, dy, u_lambda, _] = sampler.next_4d();
-        let mut wl = scene.wavelengths.sample(u_lambda);
-        let seen = wl.lambda;
-        let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
-        let l = self.radiance(scene, ray, &mut wl, sampler, counters);
-        // Fluorescence may have moved the wavelengths the path carries;
-        // the film bins the light at those the camera saw.
-        wl.lambda = seen;
-        PixelSample { l, wl }
-    }
-}
-
-renders_by_pixels!(PathTracer);
-
 impl PathTracer {
     /// Radiance arriving along `ray` (unit direction) at the path's wavelengths.
     pub fn radiance(
@@ -199,7 +161,7 @@ impl PathTracer {
     }
 
     /// A walk from the camera: radiance, nothing around it yet.
-    fn camera_walk(&self, ray: Ray) -> Walk {
+    pub(super) fn camera_walk(&self, ray: Ray) -> Walk {
         Walk::from_camera(ray, IorStack::default(), self.rr_depth)
     }
 
@@ -220,7 +182,16 @@ impl PathTracer {
     /// Next-event estimation at `event` (a surface, or a point in a
     /// medium), weighted by what the path carries (zero, with its numbers
     /// skipped, where the strategy or a Dirac BSDF rules it out).
-    fn direct(&self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> SampledSpectrum {
+    /// With `defer`, a shadow ray that only a surface could block is not
+    /// traced but left there, and the light returned is what arrives if
+    /// nothing blocks it.
+    fn direct(
+        &self,
+        ctx: &mut PathContext,
+        walk: &Walk,
+        event: &Event,
+        defer: Option<&mut Option<Ray>>,
+    ) -> SampledSpectrum {
         let ruled_out = self.strategy == Strategy::Bsdf
             || matches!(event.at, Scatterer::Surface { bsdf, .. } if bsdf.is_specular());
         if ruled_out {
@@ -230,7 +201,8 @@ impl PathTracer {
         }
         let direct = match event.at {
             Scatterer::Surface { hit, bsdf, medium } => {
-                self.sample_direct(ctx, hit, event.wo, bsdf, &walk.stack, medium)
+                let at = (hit, event.wo, bsdf);
+                self.sample_direct(ctx, at, &walk.stack, medium, defer)
             }
             Scatterer::Medium { p, phase } => {
                 let dir_in = -event.wo;
@@ -251,6 +223,7 @@ impl PathTracer {
                         .starting_in_free_space(true)
                     },
                     |_| walk.stack,
+                    None,
                 )
             }
         };
@@ -278,15 +251,14 @@ impl PathTracer {
 
     /// Next-event estimation at a surface `hit` seen from `wo`, which the
     /// path reached with the media `stack` (`medium`: what `trace` said of
-    /// the surface).
+    /// the surface; `defer` as in `direct`).
     pub(super) fn sample_direct(
         &self,
         ctx: &mut PathContext,
-        hit: &SurfaceHit,
-        wo: glam::Vec3,
-        bsdf: &Bsdf,
+        (hit, wo, bsdf): (&SurfaceHit, glam::Vec3, &Bsdf),
         stack: &IorStack,
         medium: Option<(Entry, bool)>,
+        defer: Option<&mut Option<Ray>>,
     ) -> SampledSpectrum {
         self.sample_direct_from(
             ctx,
@@ -303,6 +275,7 @@ impl PathTracer {
                 }
             },
             |wi| stack_towards(stack, medium, wo, wi, hit.ng),
+            defer,
         )
     }
 
@@ -311,7 +284,7 @@ impl PathTracer {
     /// the strategy is MIS. `scattering(wi)` gives the value (BSDF times
     /// cosine, or the phase function) and its density; `shadow(wi, point)`
     /// the ray to the light (its point, or a direction to infinity);
-    /// `stack` the media that ray starts in.
+    /// `stack` the media that ray starts in; `defer` as in `direct`.
     pub(super) fn sample_direct_from(
         &self,
         ctx: &mut PathContext,
@@ -319,6 +292,7 @@ impl PathTracer {
         scattering: impl Fn(glam::Vec3) -> (SampledSpectrum, f32),
         shadow: impl Fn(glam::Vec3, Option<LightPoint>) -> Ray,
         stack: impl Fn(glam::Vec3) -> IorStack,
+        defer: Option<&mut Option<Ray>>,
     ) -> SampledSpectrum {
         let (scene, wl) = (ctx.scene, &*ctx.wl);
         // Draw the numbers whatever happens, so each path uses a fixed number
@@ -337,7 +311,16 @@ impl PathTracer {
         if f == SampledSpectrum::ZERO {
             return SampledSpectrum::ZERO;
         }
-        let tr = transmittance(scene, &shadow(wi, ls.point), &stack(wi), wl, ctx.counters);
+        let shadow = shadow(wi, ls.point);
+        let tr = match defer {
+            // Without media only a surface can block it: all or nothing.
+            Some(slot) if !scene.has_media() => {
+                ctx.counters.rays += 1;
+                *slot = Some(shadow);
+                SampledSpectrum::ONE
+            }
+            _ => transmittance(scene, &shadow, &stack(wi), wl, ctx.counters),
+        };
         if tr == SampledSpectrum::ZERO {
             return SampledSpectrum::ZERO;
         }
@@ -352,13 +335,13 @@ impl PathTracer {
 }
 
 /// What may end a camera path at a surface (`radiance_until`).
-type StopAt<'s> = &'s mut dyn FnMut(Stop<'_, '_>) -> Option<SampledSpectrum>;
+pub(super) type StopAt<'s> = &'s mut dyn FnMut(Stop<'_, '_>) -> Option<SampledSpectrum>;
 
 /// The path tracer's visitor: the light a camera path gathers (emission
 /// found by BSDF sampling, next-event estimates), and its splitting.
-struct Gather<'t, 's> {
+pub(super) struct Gather<'t, 's> {
     tracer: &'t PathTracer,
-    l: SampledSpectrum,
+    pub(super) l: SampledSpectrum,
     /// The last bounce was a Dirac one (or there was none).
     specular: bool,
     prev_bsdf_pdf: f32,
@@ -373,10 +356,15 @@ struct Gather<'t, 's> {
     in_caustic: bool,
     /// The path may still split at a dispersive interface.
     disperses: bool,
+    /// Leave light samples' shadow rays to be traced later (a stream's),
+    /// the light in `unblocked` until then.
+    pub(super) defers_shadows: bool,
+    pub(super) shadow: Option<Ray>,
+    pub(super) unblocked: SampledSpectrum,
 }
 
 impl<'t, 's> Gather<'t, 's> {
-    fn new(tracer: &'t PathTracer, stop: Option<StopAt<'s>>, split: u32) -> Self {
+    pub(super) fn new(tracer: &'t PathTracer, stop: Option<StopAt<'s>>, split: u32) -> Self {
         Gather {
             tracer,
             l: SampledSpectrum::ZERO,
@@ -390,6 +378,21 @@ impl<'t, 's> Gather<'t, 's> {
             met_diffuse: false,
             in_caustic: false,
             disperses: tracer.split_dispersion,
+            defers_shadows: false,
+            shadow: None,
+            unblocked: SampledSpectrum::ZERO,
+        }
+    }
+
+    /// Adds the light sampled at `event`, or keeps it until its shadow ray
+    /// is traced (`defers_shadows`; not where the path splits after it).
+    fn add_direct(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) {
+        let defer = (self.defers_shadows && self.split == 1).then_some(&mut self.shadow);
+        let direct = self.tracer.direct(ctx, walk, event, defer);
+        if self.shadow.is_some() {
+            self.unblocked = direct;
+        } else {
+            self.l += direct;
         }
     }
 
@@ -449,7 +452,7 @@ impl Visitor for Gather<'_, '_> {
         match event.at {
             Scatterer::Medium { .. } => {
                 (self.met_diffuse, self.in_caustic) = (false, false);
-                self.l += tracer.direct(ctx, walk, event);
+                self.l += tracer.direct(ctx, walk, event, None);
                 Flow::Go
             }
             Scatterer::Surface { hit, bsdf, medium } => {
@@ -473,7 +476,7 @@ impl Visitor for Gather<'_, '_> {
                     // Keep the dimensions of later bounces aligned.
                     ctx.sampler.skip_4d();
                 } else {
-                    self.l += tracer.direct(ctx, walk, event);
+                    self.add_direct(ctx, walk, event);
                 }
                 if self.split > 1 {
                     // The first surface: the sample splits into `split`

@@ -350,7 +350,8 @@ impl Sppm {
             if !at.bsdf.flags().contains(BsdfFlags::DIFFUSE) {
                 return None;
             }
-            let ld = direct.sample_direct(at.ctx, at.hit, at.wo, at.bsdf, at.stack, at.medium);
+            let ld =
+                direct.sample_direct(at.ctx, (at.hit, at.wo, at.bsdf), at.stack, at.medium, None);
             // Photons of up to max_depth + 1 − depth surfaces keep the
             // whole path within max_depth bounces.
             let max_photon_depth = self.max_depth + 1 - at.depth;

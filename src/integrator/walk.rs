@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 
-use super::interface::{bsdf_at, scatter, trace, Next};
+use super::interface::{bsdf_at, scatter, trace_from, FirstHit, Next};
 use super::ior_stack::{Entry, IorStack};
 use super::volume::Flight;
 use super::PathCounters;
@@ -188,81 +188,100 @@ impl Dispersion<'_> {
 /// roulette or the visitor ends it.
 #[inline]
 pub fn walk(ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) {
-    loop {
-        let next = trace(
-            ctx.scene,
-            &mut walk.ray,
-            std::mem::take(&mut walk.camera_ray),
-            &mut walk.stack,
-            ctx.wl,
-            &mut walk.flight,
-            Some(&mut *ctx.sampler),
-            ctx.counters,
-        );
-        match next {
-            Next::Surface { hit, eta, medium } => {
-                if visitor.arrive(ctx, walk, Some(&hit)) == Flow::End {
-                    break;
-                }
-                walk.depth += 1;
-                // Only glass of a dispersive index may end the secondaries.
-                let arrived = (visitor.splits_dispersion()
-                    && ctx.scene.materials[hit.material as usize]
-                        .ior()
-                        .is_some_and(|ior| ior.is_dispersive()))
-                .then_some(*ctx.wl);
-                let bsdf = bsdf_at(ctx.scene, &hit, -walk.ray.dir, ctx.wl, eta);
-                // Not after a chromatic medium's spectral MIS (r ≠ 1): a
-                // wavelength the hero drew no flights for cannot go alone.
-                if let Some(arrived) = arrived.filter(|a| {
-                    ctx.wl.secondary_terminated()
-                        && !a.secondary_terminated()
-                        && walk.flight.r == SampledSpectrum::ONE
-                }) {
-                    *ctx.wl = arrived;
-                    let at = Dispersion {
-                        hit: &hit,
-                        eta,
-                        medium,
-                    };
-                    visitor.disperse(ctx, walk, &at);
-                    break;
-                }
-                if !at_surface(ctx, walk, &hit, &bsdf, medium, visitor) {
-                    break;
-                }
+    while step(ctx, walk, FirstHit::Unknown, visitor) == Flow::Go {}
+}
+
+/// One step of `walk`: traces `walk.ray` (whose closest surface `first`
+/// may already hold) to the next event and takes it; `Go` while the walk
+/// goes on (along the new `walk.ray`). A stream of paths advances each
+/// path by steps, with their rays traced together in between.
+#[inline(always)]
+pub fn step(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    first: FirstHit,
+    visitor: &mut impl Visitor,
+) -> Flow {
+    let next = trace_from(
+        ctx.scene,
+        &mut walk.ray,
+        first,
+        std::mem::take(&mut walk.camera_ray),
+        &mut walk.stack,
+        ctx.wl,
+        &mut walk.flight,
+        Some(&mut *ctx.sampler),
+        ctx.counters,
+    );
+    match next {
+        Next::Surface { hit, eta, medium } => {
+            if visitor.arrive(ctx, walk, Some(&hit)) == Flow::End {
+                return Flow::End;
             }
-            Next::Medium { p, phase } => {
-                if visitor.arrive(ctx, walk, None) == Flow::End {
-                    break;
-                }
-                walk.depth += 1;
-                let dir_in = walk.ray.dir.normalize();
-                let event = Event {
-                    at: Scatterer::Medium { p, phase },
-                    wo: -dir_in,
+            walk.depth += 1;
+            // Only glass of a dispersive index may end the secondaries.
+            let arrived = (visitor.splits_dispersion()
+                && ctx.scene.materials[hit.material as usize]
+                    .ior()
+                    .is_some_and(|ior| ior.is_dispersive()))
+            .then_some(*ctx.wl);
+            let bsdf = bsdf_at(ctx.scene, &hit, -walk.ray.dir, ctx.wl, eta);
+            // Not after a chromatic medium's spectral MIS (r ≠ 1): a
+            // wavelength the hero drew no flights for cannot go alone.
+            if let Some(arrived) = arrived.filter(|a| {
+                ctx.wl.secondary_terminated()
+                    && !a.secondary_terminated()
+                    && walk.flight.r == SampledSpectrum::ONE
+            }) {
+                *ctx.wl = arrived;
+                let at = Dispersion {
+                    hit: &hit,
+                    eta,
+                    medium,
                 };
-                if visitor.scatter_from(ctx, walk, &event) == Flow::End {
-                    break;
-                }
-                let [u0, u1, _, u_rr] = visitor.numbers(ctx, walk);
-                let (wi, pdf) = phase.sample(dir_in, (u0, u1));
-                visitor.scattered(ctx.scene, walk, &event, wi, pdf, false);
-                walk.ray = Ray::new(p, wi).starting_in_free_space(true);
-                let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
-                if !walk
-                    .flight
-                    .roulette(ctx.wl, eta_scale, depth, rr_depth, u_rr)
-                {
-                    break;
-                }
+                visitor.disperse(ctx, walk, &at);
+                return Flow::End;
             }
-            Next::Escaped => {
-                visitor.escaped(ctx, walk);
-                break;
-            }
-            Next::Lost => break,
+            go_on(at_surface(ctx, walk, &hit, &bsdf, medium, visitor))
         }
+        Next::Medium { p, phase } => {
+            if visitor.arrive(ctx, walk, None) == Flow::End {
+                return Flow::End;
+            }
+            walk.depth += 1;
+            let dir_in = walk.ray.dir.normalize();
+            let event = Event {
+                at: Scatterer::Medium { p, phase },
+                wo: -dir_in,
+            };
+            if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+                return Flow::End;
+            }
+            let [u0, u1, _, u_rr] = visitor.numbers(ctx, walk);
+            let (wi, pdf) = phase.sample(dir_in, (u0, u1));
+            visitor.scattered(ctx.scene, walk, &event, wi, pdf, false);
+            walk.ray = Ray::new(p, wi).starting_in_free_space(true);
+            let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
+            go_on(
+                walk.flight
+                    .roulette(ctx.wl, eta_scale, depth, rr_depth, u_rr),
+            )
+        }
+        Next::Escaped => {
+            visitor.escaped(ctx, walk);
+            Flow::End
+        }
+        Next::Lost => Flow::End,
+    }
+}
+
+/// `Go` if `goes_on`.
+#[inline(always)]
+fn go_on(goes_on: bool) -> Flow {
+    if goes_on {
+        Flow::Go
+    } else {
+        Flow::End
     }
 }
 

@@ -22,7 +22,7 @@ use crate::load::{self, Loaded, Overrides};
 use crate::memory::for_people;
 use crate::merge::{ATTR_ADAPTIVE, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
 use crate::render::{
-    memory_estimate, render, PassHook, RenderOptions, RenderSettings, RenderStats, Stop,
+    memory_estimate, render, PassHook, RenderOptions, RenderSettings, RenderStats, Stop, Streams,
 };
 
 pub struct RenderJob {
@@ -56,6 +56,8 @@ pub struct RenderJob {
     /// `--adaptive` or `--uniform`; None: as the scene asks, where the
     /// render can (`RenderSettings::adaptive_for`).
     pub sampling: Option<Sampling>,
+    /// Whether the path tracer's samples advance as a stream of paths.
+    pub streams: Streams,
 }
 
 /// How a render job ended (errors aside).
@@ -223,6 +225,7 @@ fn render_options(job: &RenderJob, settings: &RenderSettings) -> Result<RenderOp
         eprintln!("{reason}");
     }
     options.adaptive = adaptive;
+    options.streams = job.streams;
     Ok(options)
 }
 

@@ -9,7 +9,9 @@ mod memory;
 pub use crate::drive::adaptive::{
     pilot_spp, progress as adaptive_progress, targets as adaptive_targets, uniform_instead,
 };
-pub use crate::drive::{PassHook, ProgressCounts, RenderError, RenderOptions, RenderStats, Stop};
+pub use crate::drive::{
+    PassHook, ProgressCounts, RenderError, RenderOptions, RenderStats, Stop, Streams,
+};
 pub use memory::{memory_estimate, MemoryEstimate};
 
 use crate::drive::{AovTracer, RenderJob};
