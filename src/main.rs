@@ -145,7 +145,7 @@ enum Command {
         uniform: bool,
         /// Advance the path tracer's samples as a stream of paths, their
         /// rays traced together: `auto` where the scene's tree is larger
-        /// than 32 MiB (a tree that fits the caches loses). The
+        /// than 16 MiB (a tree that fits the caches gains nothing). The
         /// image is the same, bit for bit.
         #[arg(long, value_enum, default_value = "auto")]
         stream: StreamArg,

@@ -26,12 +26,12 @@ use crate::scene::{Scene, SurfaceHit};
 pub const IN_FLIGHT: usize = 64;
 
 /// Trees (nodes and triangles) of more bytes than this are traced as a
-/// stream: smaller ones stay in the last-level cache (32 MiB on the
-/// development machine, shared by its two cores), where a ray hardly
-/// waits for memory and the stream's bookkeeping is a cost. Cave of two
-/// terrains, 2 threads: an 8 MiB tree 9-21% slower as a stream, 41 MiB
-/// 7-12% faster, 116 MiB 7-18% faster (docs/performance.md).
-pub const STREAM_ABOVE_BYTES: usize = 32 << 20;
+/// stream: smaller ones stay in the caches, where a ray hardly waits for
+/// memory and the stream's bookkeeping is a cost. Cave of two terrains,
+/// 2 threads, against one path at a time: a 1.8 MiB tree −2 to +16%, 8 MiB
+/// −20 to +5%, 21 MiB −9 to −12%, 41 MiB −5 to −16%, 116 MiB −17 to −32%
+/// (docs/performance.md).
+pub const STREAM_ABOVE_BYTES: usize = 16 << 20;
 
 /// An integrator whose camera samples can advance as a stream: each
 /// sample a path that waits on the closest surface along one ray at a
@@ -43,13 +43,7 @@ pub trait StreamEstimator: PixelEstimator {
         Self: 'a;
 
     /// Starts a sample of pixel (`x`, `y`) with its `sampler`.
-    fn start<'a>(
-        &'a self,
-        scene: &Scene,
-        pixel: (u32, u32),
-        sampler: Sampler,
-        counters: &mut PathCounters,
-    ) -> Self::Path<'a>;
+    fn start<'a>(&'a self, scene: &Scene, pixel: (u32, u32), sampler: Sampler) -> Self::Path<'a>;
 
     /// The ray whose closest surface the path waits on.
     fn ray<'p>(&self, path: &'p Self::Path<'_>) -> &'p Ray;
@@ -124,14 +118,12 @@ pub fn render_tile<E: StreamEstimator>(
             let Some((x, y, index)) = samples.next() else {
                 break;
             };
-            let mut own = PathCounters::default();
             let sampler = Sampler::for_sample(seed, x, y, index as u64);
-            let path = estimator.start(scene, (x, y), sampler, &mut own);
             flying.push(InFlight {
                 order: started,
                 sample: (x, y, index),
-                path,
-                counters: own,
+                path: estimator.start(scene, (x, y), sampler),
+                counters: PathCounters::default(),
                 goes_on: true,
             });
             ended.push_back(None);

@@ -104,7 +104,6 @@ impl StreamEstimator for PathTracer {
         scene: &Scene,
         pixel: (u32, u32),
         mut sampler: Sampler,
-        _: &mut PathCounters,
     ) -> StreamPath<'a> {
         let (ray, wl, seen) = self.camera_sample(scene, pixel, &mut sampler);
         let mut gather = Gather::new(self, None, self.split);
