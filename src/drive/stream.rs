@@ -101,20 +101,19 @@ pub fn render_tile<E: StreamEstimator>(
     let mut samples = (y0..y0 + h)
         .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
         .flat_map(|(x, y)| indices(x, y).map(move |i| (x, y, i)));
-    let in_flight = IN_FLIGHT;
-    let mut flying: Vec<InFlight<E::Path<'_>>> = Vec::with_capacity(in_flight);
+    let mut flying: Vec<InFlight<E::Path<'_>>> = Vec::with_capacity(IN_FLIGHT);
     // Ended samples from `committed` on, in order (None: still in flight).
     let mut ended: VecDeque<Option<Ended>> = VecDeque::new();
     let (mut committed, mut started) = (0u64, 0u64);
-    let mut rays = Vec::with_capacity(in_flight);
-    let mut triangles: Vec<Option<(u32, TriangleHit)>> = vec![None; in_flight];
-    let mut hits: Vec<Option<SurfaceHit>> = vec![None; in_flight];
-    let mut blocked = vec![false; in_flight];
+    let mut rays = Vec::with_capacity(IN_FLIGHT);
+    let mut triangles: [Option<(u32, TriangleHit)>; IN_FLIGHT] = [None; IN_FLIGHT];
+    let mut hits: [Option<SurfaceHit>; IN_FLIGHT] = [None; IN_FLIGHT];
+    let mut blocked = [false; IN_FLIGHT];
     let mut counters = PathCounters::default();
     let (mut bad, mut taken) = (0, 0);
     loop {
         // Refill the stream from the tile's next samples.
-        while flying.len() < in_flight {
+        while flying.len() < IN_FLIGHT {
             let Some((x, y, index)) = samples.next() else {
                 break;
             };

@@ -12,7 +12,7 @@
 
 use glam::Vec3;
 
-use super::interface::{bsdf_at, trace, Next};
+use super::interface::{bsdf_at, trace, FirstHit, Next};
 use super::ior_stack::IorStack;
 use super::volume::Flight;
 use super::{camera_ray, PathCounters};
@@ -55,6 +55,7 @@ impl AovTracer for Aovs {
         let Next::Surface { hit, eta, .. } = trace(
             scene,
             &mut ray,
+            FirstHit::Unknown,
             true,
             &mut IorStack::default(),
             &wl,

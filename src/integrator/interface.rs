@@ -52,44 +52,27 @@ pub enum Next {
     Lost,
 }
 
-/// Traces `ray` to the next real surface, crossing false intersections
-/// and interfaces (the stack enters and leaves their objects). On return
-/// `ray` is the segment that reached the surface, escaped or scattered;
-/// every ray traced counts. In a medium the path's throughput `flight`
-/// attenuates (Beer–Lambert), and in a scattering one the path may
-/// scatter: `sampler` draws the free-flight distance (`volume::fly`);
-/// None never scatters (first-hit queries). A `camera_ray` passes the back
-/// faces of single-sided surfaces (glTF's `doubleSided = false`).
-#[allow(clippy::too_many_arguments)]
-pub fn trace(
-    scene: &Scene,
-    ray: &mut Ray,
-    camera_ray: bool,
-    stack: &mut IorStack,
-    wl: &SampledWavelengths,
-    flight: &mut Flight,
-    sampler: Option<&mut Sampler>,
-    counters: &mut PathCounters,
-) -> Next {
-    let first = FirstHit::Unknown;
-    trace_from(
-        scene, ray, first, camera_ray, stack, wl, flight, sampler, counters,
-    )
-}
-
-/// Whether the closest surface along a ray is known before `trace_from`
-/// is called (a stream of rays traced together found it).
+/// Whether the closest surface along a ray is known before `trace` is
+/// called (a stream of rays traced together found it).
 #[derive(Clone, Copy)]
 pub enum FirstHit {
     Unknown,
     Known(Option<SurfaceHit>),
 }
 
-/// `trace`, where `first` may already hold `scene.intersect(ray)`: the
-/// same answer, bit for bit, and the same rays counted.
+/// Traces `ray` to the next real surface, crossing false intersections
+/// and interfaces (the stack enters and leaves their objects). On return
+/// `ray` is the segment that reached the surface, escaped or scattered;
+/// every ray traced counts. `first` may already hold `scene.intersect(ray)`
+/// (the same answer, bit for bit, and the same rays counted). In a medium
+/// the path's throughput `flight` attenuates (Beer–Lambert), and in a
+/// scattering one the path may scatter: `sampler` draws the free-flight
+/// distance (`volume::fly`); None never scatters (first-hit queries). A
+/// `camera_ray` passes the back faces of single-sided surfaces (glTF's
+/// `doubleSided = false`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn trace_from(
+pub fn trace(
     scene: &Scene,
     ray: &mut Ray,
     mut first: FirstHit,

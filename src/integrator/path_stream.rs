@@ -39,7 +39,8 @@ impl PixelEstimator for PathTracer {
         _: &(),
         counters: &mut PathCounters,
     ) -> PixelSample {
-        let (ray, mut wl, seen) = self.camera_sample(scene, (x, y), sampler);
+        let (ray, mut wl) = self.camera_sample(scene, (x, y), sampler);
+        let seen = wl.lambda;
         let l = self.radiance(scene, ray, &mut wl, sampler, counters);
         // Fluorescence may have moved the wavelengths the path carries;
         // the film bins the light at those the camera saw.
@@ -71,18 +72,17 @@ impl PixelEstimator for PathTracer {
 renders_by_pixels!(PathTracer);
 
 impl PathTracer {
-    /// A camera sample's ray through pixel (`x`, `y`), its wavelengths, and
-    /// those the camera sees (where the film bins the light).
+    /// A camera sample's ray through pixel (`x`, `y`) and its wavelengths.
     fn camera_sample(
         &self,
         scene: &Scene,
         (x, y): (u32, u32),
         sampler: &mut Sampler,
-    ) -> (Ray, SampledWavelengths, glam::Vec4) {
+    ) -> (Ray, SampledWavelengths) {
         let [dx, dy, u_lambda, _] = sampler.next_4d();
         let wl = scene.wavelengths.sample(u_lambda);
         let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
-        (ray, wl, wl.lambda)
+        (ray, wl)
     }
 }
 
@@ -105,13 +105,13 @@ impl StreamEstimator for PathTracer {
         pixel: (u32, u32),
         mut sampler: Sampler,
     ) -> StreamPath<'a> {
-        let (ray, wl, seen) = self.camera_sample(scene, pixel, &mut sampler);
+        let (ray, wl) = self.camera_sample(scene, pixel, &mut sampler);
         let mut gather = Gather::new(self, None, self.split);
         gather.defers_shadows = true;
         StreamPath {
             sampler,
             wl,
-            seen,
+            seen: wl.lambda,
             walk: self.camera_walk(ray),
             gather,
         }

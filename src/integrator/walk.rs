@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 
-use super::interface::{bsdf_at, scatter, trace_from, FirstHit, Next};
+use super::interface::{bsdf_at, scatter, trace, FirstHit, Next};
 use super::ior_stack::{Entry, IorStack};
 use super::volume::Flight;
 use super::PathCounters;
@@ -202,7 +202,7 @@ pub fn step(
     first: FirstHit,
     visitor: &mut impl Visitor,
 ) -> Flow {
-    let next = trace_from(
+    let next = trace(
         ctx.scene,
         &mut walk.ray,
         first,
