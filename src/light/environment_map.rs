@@ -18,7 +18,7 @@ use glam::Vec3;
 use super::lat_long::SphericalDistribution;
 use super::{LightLeSample, LightLiSample, SceneSphere};
 use crate::spectrum::cie;
-use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
+use crate::spectrum::rgb2spec::{self, SigmoidPolynomial};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum};
 
 #[derive(Clone, Debug)]
@@ -95,11 +95,8 @@ impl EnvironmentMap {
         if scale == 0.0 {
             return SampledSpectrum::ZERO;
         }
-        let smooth = wl.lambda.to_array().map(|l| {
-            let t = normalised_wavelength(l);
-            sigmoid((c0 * t + c1) * t + c2)
-        });
-        SampledSpectrum::from_array(smooth) * self.d65.sample(wl) * scale
+        let smooth = SigmoidPolynomial { c: [c0, c1, c2] }.sample(wl.lambda);
+        smooth * self.d65.sample(wl) * scale
     }
 
     /// Solid-angle density of `sample_li` for direction `w` (towards the sky).

@@ -6,7 +6,7 @@
 
 use std::sync::OnceLock;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use super::{LAMBDA_MAX, LAMBDA_MIN};
 
@@ -21,11 +21,40 @@ impl SigmoidPolynomial {
         let t = normalised_wavelength(lambda);
         sigmoid((self.c[0] * t + self.c[1]) * t + self.c[2])
     }
+
+    /// At a path's four wavelengths, in SIMD: lane for lane the arithmetic
+    /// of `eval`, so the values are the same to the bit.
+    pub fn sample(&self, lambda: Vec4) -> Vec4 {
+        self.at(normalised_wavelengths(lambda))
+    }
+
+    /// At four normalised wavelengths (`normalised_wavelengths`), for
+    /// callers that evaluate many polynomials at the same wavelengths.
+    pub fn at(&self, t: Vec4) -> Vec4 {
+        let [c0, c1, c2] = self.c.map(Vec4::splat);
+        sigmoids((c0 * t + c1) * t + c2)
+    }
 }
 
 /// Maps [360, 830] nm to [0, 1], the variable the polynomial is fitted in.
 pub fn normalised_wavelength(lambda: f32) -> f32 {
     (lambda - LAMBDA_MIN) / (LAMBDA_MAX - LAMBDA_MIN)
+}
+
+/// `normalised_wavelength` in each lane.
+pub fn normalised_wavelengths(lambda: Vec4) -> Vec4 {
+    (lambda - Vec4::splat(LAMBDA_MIN)) / (LAMBDA_MAX - LAMBDA_MIN)
+}
+
+/// `sigmoid` in each lane, in SIMD (the hot form: textures and RGB lights
+/// evaluate it at every hit and every light sample).
+pub fn sigmoids(x: Vec4) -> Vec4 {
+    // glam 0.29 has no Vec4::sqrt; LLVM's SLP pass makes the lanes one sqrtps.
+    let root = Vec4::from_array((1.0 + x * x).to_array().map(f32::sqrt));
+    let finite = 0.5 + x / (2.0 * root);
+    // ±∞ would give ∞/∞: their limits instead.
+    let limit = Vec4::select(x.cmpgt(Vec4::ZERO), Vec4::ONE, Vec4::ZERO);
+    Vec4::select(x.abs().cmpeq(Vec4::INFINITY), limit, finite)
 }
 
 /// The smooth map of ℝ onto (0, 1) used by the paper: ½ + x / (2√(1 + x²)).
@@ -201,6 +230,38 @@ mod tests {
         assert_eq!(sigmoid(f32::INFINITY), 1.0);
         assert_eq!(sigmoid(f32::NEG_INFINITY), 0.0);
         assert!(sigmoid(1e30) <= 1.0 && sigmoid(-1e30) >= 0.0);
+    }
+
+    #[test]
+    fn simd_forms_match_the_scalar_ones_to_the_bit() {
+        let xs = [
+            0.0,
+            -0.0,
+            1e-30,
+            0.3,
+            -2.5,
+            17.0,
+            1e19,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for x in xs.chunks(4) {
+            let mut lanes = [0.0; 4];
+            lanes[..x.len()].copy_from_slice(x);
+            let simd = sigmoids(Vec4::from_array(lanes)).to_array();
+            for (v, x) in simd.iter().zip(lanes) {
+                assert_eq!(v.to_bits(), sigmoid(x).to_bits(), "sigmoid({x})");
+            }
+        }
+        let poly = SigmoidPolynomial {
+            c: [-31.2, 27.5, -4.1],
+        };
+        let lambda = Vec4::new(360.0, 451.7, 600.25, 830.0);
+        let simd = poly.sample(lambda).to_array();
+        for (v, l) in simd.iter().zip(lambda.to_array()) {
+            assert_eq!(v.to_bits(), poly.eval(l).to_bits(), "λ = {l}");
+        }
     }
 
     #[test]

@@ -202,7 +202,14 @@ impl Spectrum {
         match self {
             Spectrum::Constant(c) => SampledSpectrum::splat(*c),
             Spectrum::Table(t) => t.sample(wl.lambda),
-            _ => SampledSpectrum::new(
+            Spectrum::Rgb(rgb) => {
+                let v = rgb.scale * rgb.sigmoid.sample(wl.lambda);
+                match &rgb.illuminant {
+                    Some(illum) => v * illum.sample(wl.lambda),
+                    None => v,
+                }
+            }
+            Spectrum::Blackbody { .. } => SampledSpectrum::new(
                 self.eval(wl.lambda.x),
                 self.eval(wl.lambda.y),
                 self.eval(wl.lambda.z),
