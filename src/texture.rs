@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use crate::memory;
 use crate::spectrum::cie::srgb_decode;
-use crate::spectrum::rgb2spec::{self, normalised_wavelength, sigmoid};
+use crate::spectrum::rgb2spec::{self, normalised_wavelengths, SigmoidPolynomial};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// What to do with texture coordinates outside [0, 1].
@@ -156,8 +156,8 @@ impl Texture {
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (i0, j0) = (x0 as i64, y0 as i64);
-        let (i1, j1) = (wrap(i0 + 1, w, self.wrap[0]), wrap(j0 + 1, h, self.wrap[1]));
-        let (i0, j0) = (wrap(i0, w, self.wrap[0]), wrap(j0, h, self.wrap[1]));
+        let (i0, i1) = wrap_pair(i0, w, self.wrap[0]);
+        let (j0, j1) = wrap_pair(j0, h, self.wrap[1]);
         let at = |i: i64, j: i64| (j * w + i) as usize;
         [
             (at(i0, j0), (1.0 - fx) * (1.0 - fy)),
@@ -176,15 +176,14 @@ impl Texture {
                 return SampledSpectrum::splat(self.linear(uv).x)
             }
         };
-        let t = Vec4::from_array(wl.lambda.to_array().map(normalised_wavelength));
+        let t = normalised_wavelengths(wl.lambda);
         let mut s = SampledSpectrum::ZERO;
         for (index, weight) in self.footprint(uv) {
             if weight == 0.0 {
                 continue;
             }
             let [c0, c1, c2, scale] = texels[index];
-            let x = (Vec4::splat(c0) * t + Vec4::splat(c1)) * t + Vec4::splat(c2);
-            s += Vec4::from_array(x.to_array().map(sigmoid)) * (weight * scale);
+            s += SigmoidPolynomial { c: [c0, c1, c2] }.at(t) * (weight * scale);
         }
         s
     }
@@ -211,6 +210,17 @@ impl Texture {
 }
 
 /// Texel index `i` wrapped into [0, n).
+/// Texels i and i + 1 wrapped: under Repeat from one division, not two
+/// (a 64-bit division is the slowest instruction of a texture lookup).
+fn wrap_pair(i: i64, n: i64, mode: Wrap) -> (i64, i64) {
+    if mode == Wrap::Repeat {
+        let first = i.rem_euclid(n);
+        let next = if first + 1 == n { 0 } else { first + 1 };
+        return (first, next);
+    }
+    (wrap(i, n, mode), wrap(i + 1, n, mode))
+}
+
 fn wrap(i: i64, n: i64, mode: Wrap) -> i64 {
     match mode {
         Wrap::Repeat => i.rem_euclid(n),
@@ -361,6 +371,22 @@ mod tests {
         assert_eq!(wrap(4, 4, Wrap::Mirror), 3);
         assert_eq!(wrap(-1, 4, Wrap::Mirror), 0);
         assert_eq!(wrap(8, 4, Wrap::Mirror), 0);
+    }
+
+    #[test]
+    fn wrapped_pairs_are_the_two_wrapped_texels() {
+        for mode in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+            for n in [1, 2, 5] {
+                for i in -12..12 {
+                    let pair = wrap_pair(i, n, mode);
+                    assert_eq!(
+                        pair,
+                        (wrap(i, n, mode), wrap(i + 1, n, mode)),
+                        "{mode:?} {n} {i}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
