@@ -209,7 +209,6 @@ impl Texture {
     }
 }
 
-/// Texel index `i` wrapped into [0, n).
 /// Texels i and i + 1 wrapped: under Repeat from one division, not two
 /// (a 64-bit division is the slowest instruction of a texture lookup).
 fn wrap_pair(i: i64, n: i64, mode: Wrap) -> (i64, i64) {
@@ -221,6 +220,7 @@ fn wrap_pair(i: i64, n: i64, mode: Wrap) -> (i64, i64) {
     (wrap(i, n, mode), wrap(i + 1, n, mode))
 }
 
+/// Texel index `i` wrapped into [0, n).
 fn wrap(i: i64, n: i64, mode: Wrap) -> i64 {
     match mode {
         Wrap::Repeat => i.rem_euclid(n),
