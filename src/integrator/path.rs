@@ -532,11 +532,11 @@ impl Visitor for Gather<'_, '_> {
         }
         // Only lights at infinity are seen.
         for (i, light) in ctx.scene.lights.infinite() {
-            let le = light.le(walk.ray.dir, ctx.wl);
+            let (le, pdf_li) = light.le_and_pdf_li(walk.ray.origin, walk.ray.dir, ctx.wl);
             let weight = self
                 .tracer
                 .emission_weight(self.specular, self.prev_bsdf_pdf, || {
-                    ctx.scene.lights.pmf(i) * light.pdf_li(walk.ray.origin, walk.ray.dir, None)
+                    ctx.scene.lights.pmf(i) * pdf_li
                 });
             self.l += walk.flight.weight(ctx.wl) * le * weight;
         }

@@ -69,6 +69,16 @@ macro_rules! light_at_infinity {
                 self.radiance(dir, wl)
             }
 
+            #[inline]
+            fn le_and_pdf_li(
+                &self,
+                _: glam::Vec3,
+                dir: glam::Vec3,
+                wl: &crate::spectrum::SampledWavelengths,
+            ) -> (crate::spectrum::SampledSpectrum, f32) {
+                self.radiance_and_pdf(dir, wl)
+            }
+
             fn sample_le(
                 &self,
                 u_pos: (f32, f32),

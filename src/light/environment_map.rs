@@ -90,7 +90,20 @@ impl EnvironmentMap {
 
     /// Radiance arriving from direction `w` (towards the sky).
     pub fn radiance(&self, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
-        let (i, j) = self.sphere.cell(self.sphere.uv(w));
+        self.texel_radiance(self.sphere.cell(self.sphere.uv(w)), wl)
+    }
+
+    /// `radiance(w)` and `pdf_li(w)` from one inverse map of `w`.
+    pub fn radiance_and_pdf(&self, w: Vec3, wl: &SampledWavelengths) -> (SampledSpectrum, f32) {
+        let cell = self.sphere.cell(self.sphere.uv(w));
+        (
+            self.texel_radiance(cell, wl),
+            self.sphere.pdf_in_cell(cell, w),
+        )
+    }
+
+    /// The radiance of the texel at `cell` (column, row).
+    fn texel_radiance(&self, (i, j): (usize, usize), wl: &SampledWavelengths) -> SampledSpectrum {
         let [c0, c1, c2, scale] = self.texels[j * self.width + i];
         if scale == 0.0 {
             return SampledSpectrum::ZERO;
@@ -104,9 +117,11 @@ impl EnvironmentMap {
         self.sphere.pdf(w)
     }
 
+    /// Light from a direction drawn in proportion to the map's luminance;
+    /// its radiance is the texel it was drawn in.
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        let (wi, pdf) = self.sphere.sample(u)?;
-        LightLiSample::from_infinity(wi, self.radiance(wi, wl), pdf)
+        let s = self.sphere.sample(u)?;
+        LightLiSample::from_infinity(s.w, self.texel_radiance(s.cell, wl), s.pdf)
     }
 
     /// A ray into the scene: a direction from the map's distribution, from
@@ -117,9 +132,9 @@ impl EnvironmentMap {
         u_dir: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
-        let (wi, pdf_dir) = self.sphere.sample(u_dir)?;
+        let s = self.sphere.sample(u_dir)?;
         self.scene
-            .ray_from_infinity(-wi, u_pos, self.radiance(wi, wl), pdf_dir)
+            .ray_from_infinity(-s.w, u_pos, self.texel_radiance(s.cell, wl), s.pdf)
     }
 
     /// Densities of `sample_le` for a ray travelling along `dir`.
@@ -172,9 +187,10 @@ mod tests {
         });
         let mut s = crate::sampler::Sampler::new(5, 9);
         for _ in 0..2000 {
-            let (w, pdf) = m.sphere.sample(s.next_2d()).unwrap();
+            let d = m.sphere.sample(s.next_2d()).unwrap();
+            let (w, pdf) = (d.w, d.pdf);
             assert!(
-                (m.pdf_li(w) - pdf).abs() <= 1e-3 * pdf,
+                (m.pdf_li(w) - pdf).abs() <= 1e-4 * pdf,
                 "{} vs {pdf}",
                 m.pdf_li(w)
             );
@@ -196,6 +212,40 @@ mod tests {
             }
         }
         assert!((total - 1.0).abs() < 2e-3, "{total}");
+    }
+
+    /// Light sampling takes the radiance of the texel it drew and escaped
+    /// rays answer radiance and density from one lookup: both must be what
+    /// `radiance(w)` and `pdf_li(w)` say of the same direction, or MIS
+    /// would weigh the two strategies by different densities.
+    #[test]
+    fn sampled_and_escaped_lookups_agree_with_the_direction() {
+        let m = map(16, 8, |i, j| {
+            Vec3::new(1.0 + i as f32, 0.3 * j as f32, 0.2 + (i % 3) as f32)
+        });
+        let mut s = crate::sampler::Sampler::new(3, 7);
+        let wl = SampledWavelengths::sample_visible(0.37);
+        let (n, mut other_cell) = (4000, 0);
+        for _ in 0..n {
+            let u = s.next_2d();
+            let d = m.sphere.sample(u).unwrap();
+            let li = m.sample_li(u, &wl).unwrap();
+            assert_eq!((li.wi, li.pdf), (d.w, d.pdf));
+            let (le, pdf) = m.radiance_and_pdf(d.w, &wl);
+            assert_eq!((le, pdf), (m.radiance(d.w, &wl), m.pdf_li(d.w)));
+            // The inverse map may round a direction drawn on a texel's
+            // edge into its neighbour; anywhere else it finds the texel.
+            if m.sphere.cell(m.sphere.uv(d.w)) == d.cell {
+                assert_eq!(li.li, le);
+                assert!((pdf - d.pdf).abs() <= 1e-4 * d.pdf, "{pdf} vs {}", d.pdf);
+            } else {
+                other_cell += 1;
+            }
+        }
+        assert!(
+            other_cell * 1000 < n,
+            "{other_cell} of {n} in another texel"
+        );
     }
 
     #[test]

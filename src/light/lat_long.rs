@@ -78,8 +78,8 @@ impl Distribution2d {
         }
     }
 
-    /// A point of [0, 1)² and its density there.
-    fn sample(&self, u: (f32, f32)) -> (Vec2, f32) {
+    /// A point of [0, 1)², its cell (column, row) and its density there.
+    fn sample(&self, u: (f32, f32)) -> (Vec2, (usize, usize), f32) {
         let (j, tv) = invert(&self.marginal, u.1);
         let row = &self.conditional[j * (self.width + 1)..(j + 1) * (self.width + 1)];
         let (i, tu) = invert(row, u.0);
@@ -87,7 +87,7 @@ impl Distribution2d {
             (i as f32 + tu) / self.width as f32,
             (j as f32 + tv) / self.height as f32,
         );
-        (p, self.pdf_cell(i, j))
+        (p, (i, j), self.pdf_cell(i, j))
     }
 
     fn pdf_cell(&self, i: usize, j: usize) -> f32 {
@@ -105,6 +105,18 @@ pub fn grid_direction(uv: Vec2) -> (Vec3, f32) {
         Vec3::new(sin_t * phi.sin(), cos_t, sin_t * phi.cos()),
         sin_t,
     )
+}
+
+/// A direction drawn from a [`SphericalDistribution`].
+#[derive(Clone, Copy, Debug)]
+pub struct DirectionSample {
+    /// Towards the sky, unit.
+    pub w: Vec3,
+    /// The cell (column, row) it was drawn in: what the grid's values are
+    /// looked up by, without mapping `w` back.
+    pub cell: (usize, usize),
+    /// Solid-angle density.
+    pub pdf: f32,
 }
 
 /// A distribution over directions from one over the cells of a
@@ -160,22 +172,33 @@ impl SphericalDistribution {
 
     /// Solid-angle density of `sample` for direction `w` (towards the sky).
     pub fn pdf(&self, w: Vec3) -> f32 {
-        let (i, j) = self.cell(self.uv(w));
-        let sin_t = (1.0 - w.y * w.y).max(0.0).sqrt();
+        self.pdf_in_cell(self.cell(self.uv(w)), w)
+    }
+
+    /// `pdf(w)` for a `w` already known to lie in `cell`: the cell's
+    /// inverse map (atan2 and acos) is most of what `pdf` costs.
+    pub fn pdf_in_cell(&self, (i, j): (usize, usize), w: Vec3) -> f32 {
+        // Not √(1 − y²): near the poles that cancels to a few bits, and
+        // the density would disagree with the one `sample` gave.
+        let sin_t = (w.x * w.x + w.z * w.z).sqrt();
         if sin_t == 0.0 {
             return 0.0;
         }
         self.cells.pdf_cell(i, j) / (2.0 * PI * PI * sin_t)
     }
 
-    /// A direction (towards the sky) and its solid-angle density; None
-    /// where the density vanishes.
-    pub fn sample(&self, u: (f32, f32)) -> Option<(Vec3, f32)> {
-        let (uv, pdf_uv) = self.cells.sample(u);
+    /// A direction (towards the sky) drawn in proportion to the cells'
+    /// weights; None where the density vanishes.
+    pub fn sample(&self, u: (f32, f32)) -> Option<DirectionSample> {
+        let (uv, cell, pdf_uv) = self.cells.sample(u);
         let (w, sin_t) = self.direction(uv);
         if pdf_uv == 0.0 || sin_t == 0.0 {
             return None;
         }
-        Some((w, pdf_uv / (2.0 * PI * PI * sin_t)))
+        Some(DirectionSample {
+            w,
+            cell,
+            pdf: pdf_uv / (2.0 * PI * PI * sin_t),
+        })
     }
 }

@@ -275,6 +275,19 @@ pub trait LightSource {
     /// light at infinity that has extent (a directional light has none).
     fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum;
 
+    /// `le(dir)` and `pdf_li` of a ray from `origin` along `dir` that
+    /// escaped the scene, in one: what an escaped path needs for its MIS
+    /// weight. An image answers both from one inverse map of `dir` (atan2
+    /// and acos were 7% of a studio render's instructions).
+    fn le_and_pdf_li(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        wl: &SampledWavelengths,
+    ) -> (SampledSpectrum, f32) {
+        (self.le(dir, wl), self.pdf_li(origin, dir, None))
+    }
+
     /// A ray leaving the light, for paths that start at lights.
     fn sample_le(
         &self,
@@ -392,6 +405,18 @@ macro_rules! lights {
             fn le(&self, dir: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
                 match self {
                     $(Light::$variant(l) => LightSource::le(l, dir, wl),)*
+                }
+            }
+
+            #[inline]
+            fn le_and_pdf_li(
+                &self,
+                origin: Vec3,
+                dir: Vec3,
+                wl: &SampledWavelengths,
+            ) -> (SampledSpectrum, f32) {
+                match self {
+                    $(Light::$variant(l) => LightSource::le_and_pdf_li(l, origin, dir, wl),)*
                 }
             }
 

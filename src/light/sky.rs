@@ -110,9 +110,14 @@ impl Sky {
         self.sphere.pdf(w)
     }
 
+    /// `radiance(w)` and `pdf_li(w)`.
+    pub fn radiance_and_pdf(&self, w: Vec3, wl: &SampledWavelengths) -> (SampledSpectrum, f32) {
+        (self.radiance(w, wl), self.pdf_li(w))
+    }
+
     pub fn sample_li(&self, u: (f32, f32), wl: &SampledWavelengths) -> Option<LightLiSample> {
-        let (wi, pdf) = self.sphere.sample(u)?;
-        LightLiSample::from_infinity(wi, self.radiance(wi, wl), pdf)
+        let s = self.sphere.sample(u)?;
+        LightLiSample::from_infinity(s.w, self.radiance(s.w, wl), s.pdf)
     }
 
     /// A ray into the scene: a direction from the sky's distribution, from
@@ -123,9 +128,9 @@ impl Sky {
         u_dir: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLeSample> {
-        let (wi, pdf_dir) = self.sphere.sample(u_dir)?;
+        let s = self.sphere.sample(u_dir)?;
         self.scene
-            .ray_from_infinity(-wi, u_pos, self.radiance(wi, wl), pdf_dir)
+            .ray_from_infinity(-s.w, u_pos, self.radiance(s.w, wl), s.pdf)
     }
 
     /// Densities of `sample_le` for a ray travelling along `dir`.
@@ -162,7 +167,7 @@ mod tests {
             let smp = sky.sample_li(s.next_2d(), &wl).unwrap();
             assert!(smp.wi.y > 0.0);
             let pdf = sky.pdf_li(smp.wi);
-            assert!((pdf - smp.pdf).abs() <= 1e-3 * pdf, "{pdf} vs {}", smp.pdf);
+            assert!((pdf - smp.pdf).abs() <= 1e-4 * pdf, "{pdf} vs {}", smp.pdf);
         }
         assert_eq!(sky.pdf_li(Vec3::new(0.0, -0.5, 0.8).normalize()), 0.0);
         assert_eq!(

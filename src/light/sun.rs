@@ -139,6 +139,11 @@ impl Sun {
         }
     }
 
+    /// `radiance(w)` and `pdf_li(w)`.
+    pub fn radiance_and_pdf(&self, w: Vec3, wl: &SampledWavelengths) -> (SampledSpectrum, f32) {
+        (self.radiance(w, wl), self.pdf_li(w))
+    }
+
     fn cone_pdf(&self) -> f32 {
         1.0 / (2.0 * PI * self.one_minus_cos)
     }
