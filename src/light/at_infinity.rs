@@ -3,10 +3,10 @@
 
 /// `LightSource` for a light at infinity with extent, sampled by direction
 /// from an image or a model (the environment map, the sky, the sun): its
-/// inherent `with_scene`, `power`, `radiance`, `sample_li(u, λ)`,
-/// `pdf_li(wi)`, `sample_le` and `pdf_le(dir)` answer; `spectrum` is the
-/// given expression of `self`. No surface sends light (`l` is zero) and
-/// only escaped rays find it.
+/// inherent `with_scene`, `power`, `radiance`, `radiance_and_pdf`,
+/// `sample_li(u, λ)`, `pdf_li(wi)`, `sample_le` and `pdf_le(dir)` answer;
+/// `spectrum` is the given expression of `self`. No surface sends light
+/// (`l` is zero) and only escaped rays find it.
 macro_rules! light_at_infinity {
     ($ty:ident, |$light:ident| $spectrum:expr) => {
         impl super::LightSource for $ty {
