@@ -43,7 +43,6 @@ import peer_scenes
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ["floor", "ceiling", "back", "short", "tall", "red", "green", "light"]
-MATERIAL = {"red": "red", "green": "green"}
 
 # Image-space boxes (x0, y0, x1, y1) on the 512² Cornell Box view, inside
 # each surface and away from edges and shadows' penumbrae.
@@ -93,28 +92,12 @@ LIBLLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
 def cornell_dict(mi, width=512, height=512, max_depth=16, rr_depth=3):
     """The Cornell Box of scenes/cornell-box.toml for Mitsuba 3."""
-    spectra = {
-        name: {"type": "spectrum", "value": peer_scenes.read_csv_spectrum(ROOT / f"spectra/cornell_{name}.csv")}
-        for name in ["white", "red", "green", "light"]
-    }
-    scene = {
+    return {
         "type": "scene",
         "integrator": peer_scenes.path_integrator(max_depth, rr_depth),
         "sensor": peer_scenes.perspective(mi, **peer_scenes.CORNELL_CAMERA, width=width, height=height),
+        **peer_scenes.cornell_shapes(CORNELL),
     }
-    for name in ["white", "red", "green"]:
-        scene[f"bsdf_{name}"] = {"type": "diffuse", "id": f"bsdf_{name}", "reflectance": spectra[name]}
-    for part in CORNELL:
-        shape = {
-            "type": "obj",
-            "filename": str(ROOT / f"scenes/cornell/{part}.obj"),
-            "face_normals": True,
-            "bsdf": {"type": "ref", "id": f"bsdf_{MATERIAL.get(part, 'white')}"},
-        }
-        if part == "light":
-            shape["emitter"] = {"type": "area", "radiance": spectra["light"]}
-        scene[part] = shape
-    return scene
 
 
 class Target:

@@ -7,7 +7,7 @@ upsample RGB by Jakob–Hanika), smooth glass of a constant index, an RGB
 area light, an RGB environment map (both times D65).
 
     scene = peer_scenes.SCENES["cornell-glass"]
-    toml = scene.prism_toml()          # text of a prism scene file
+    toml = scene.prism_toml(work)      # text of a prism scene file
     d = scene.mitsuba_dict(mi, work)   # a dict for mi.load_dict
 
 Mitsuba's BSDFs are one-sided: every surface here faces its viewers (the
@@ -59,45 +59,86 @@ def path_integrator(max_depth, rr_depth=3):
 
 @dataclass
 class PeerScene:
+    """A scene for both renderers. What both must agree on to be compared
+    fairly (camera, image size, path depth) is held here once; `prism_body`
+    and `mitsuba_objects` write the rest, each in its renderer's terms."""
+
     name: str
+    description: str
     width: int
     height: int
-    description: str
-    prism_toml: Callable[[], str]
-    mitsuba_dict: Callable  # (mi, work dir) -> dict
+    max_depth: int
+    # position, look_at and fov_y (vertical field of view, degrees).
+    camera: dict
+    prism_body: Callable[[Path], str]  # (meshes' folder) -> materials, lights and shapes
+    mitsuba_objects: Callable  # (mi, meshes' folder) -> the scene dict's emitters and shapes
     # Image-space boxes (x0, y0, x1, y1) whose mean radiance both renderers
     # must agree on: inside surfaces, away from edges.
     regions: dict
+    # Writes the meshes the scene needs into the folder it is given.
+    meshes: Callable[[Path], object] = lambda work: None
+
+    def prism_toml(self, work):
+        c = self.camera
+        return f"""# tools/peer_scenes.py: {self.description}
+[camera]
+position = {list(c["position"])}
+look_at = {list(c["look_at"])}
+fov = {c["fov_y"]}
+
+[film]
+resolution = [{self.width}, {self.height}]
+
+[integrator]
+max_depth = {self.max_depth}
+
+{self.prism_body(Path(work))}"""
+
+    def mitsuba_dict(self, mi, work):
+        return {
+            "type": "scene",
+            "integrator": path_integrator(self.max_depth),
+            "sensor": perspective(mi, **self.camera, width=self.width, height=self.height),
+            **self.mitsuba_objects(mi, Path(work)),
+        }
 
 
 # --- The Cornell Box's walls and light with a glass sphere instead of the blocks.
 
 GLASS_CENTRE, GLASS_RADIUS = (278.0, 110.0, 270.0), 110.0
+# scenes/cornell-box.toml's camera: a 35 mm lens on 25 mm of film.
 CORNELL_CAMERA = dict(position=[278, 273, -800], look_at=[278, 273, 0], fov_y=math.degrees(2 * math.atan(12.5 / 35)))
 
 
-def cornell_glass_toml():
+def cornell_spectra():
+    """The measured Cornell Box spectra (spectra/cornell_*.csv) for Mitsuba."""
+    return {n: {"type": "spectrum", "value": read_csv_spectrum(ROOT / f"spectra/cornell_{n}.csv")}
+            for n in ["white", "red", "green", "light"]}
+
+
+def cornell_shapes(parts):
+    """scenes/cornell/PART.obj for each of `parts` as Mitsuba shapes: diffuse
+    with the measured spectra, the light emitting its spectrum."""
+    spectra = cornell_spectra()
+    shapes = {}
+    for part in parts:
+        material = part if part in ("red", "green") else "white"
+        shape = {"type": "obj", "filename": str(ROOT / f"scenes/cornell/{part}.obj"), "face_normals": True,
+                 "bsdf": {"type": "diffuse", "reflectance": spectra[material]}}
+        if part == "light":
+            shape["emitter"] = {"type": "area", "radiance": spectra["light"]}
+        shapes[part] = shape
+    return shapes
+
+
+def cornell_glass_body(work):
     walls = "\n".join(
         f'[[shape]]\ntype = "obj"\nfile = "{ROOT}/scenes/cornell/{p}.obj"\n'
         f'material = "{p if p in ("red", "green") else "white"}"\n'
         + ("emission = \"light\"\n" if p == "light" else "")
         for p in CORNELL_WALLS
     )
-    return f"""# tools/peer_scenes.py: the Cornell Box's walls and light, a glass sphere
-[camera]
-position = {CORNELL_CAMERA["position"]}
-look_at = {CORNELL_CAMERA["look_at"]}
-up = [0, 1, 0]
-focal_length = 35
-film_height = 25
-
-[film]
-resolution = [256, 256]
-
-[integrator]
-max_depth = 16
-
-[spectra]
+    return f"""[spectra]
 white = {{ file = "{ROOT}/spectra/cornell_white.csv" }}
 red = {{ file = "{ROOT}/spectra/cornell_red.csv" }}
 green = {{ file = "{ROOT}/spectra/cornell_green.csv" }}
@@ -129,23 +170,11 @@ material = "glass"
 
 
 def cornell_glass_mitsuba(mi, work):
-    spectra = {n: {"type": "spectrum", "value": read_csv_spectrum(ROOT / f"spectra/cornell_{n}.csv")}
-               for n in ["white", "red", "green", "light"]}
-    scene = {
-        "type": "scene",
-        "integrator": path_integrator(16),
-        "sensor": perspective(mi, **CORNELL_CAMERA, width=256, height=256),
+    return {
         "glass": {"type": "sphere", "center": list(GLASS_CENTRE), "radius": GLASS_RADIUS,
                   "bsdf": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}},
+        **cornell_shapes(CORNELL_WALLS),
     }
-    for part in CORNELL_WALLS:
-        material = part if part in ("red", "green") else "white"
-        shape = {"type": "obj", "filename": str(ROOT / f"scenes/cornell/{part}.obj"), "face_normals": True,
-                 "bsdf": {"type": "diffuse", "reflectance": spectra[material]}}
-        if part == "light":
-            shape["emitter"] = {"type": "area", "radiance": spectra["light"]}
-        scene[part] = shape
-    return scene
 
 
 # --- Two spheres (diffuse, glass) on a floor under the studio map.
@@ -153,20 +182,8 @@ def cornell_glass_mitsuba(mi, work):
 STUDIO_CAMERA = dict(position=[0, 1.2, 3.6], look_at=[0, 0.45, 0], fov_y=32)
 
 
-def studio_toml():
-    return f"""# tools/peer_scenes.py: a diffuse and a glass sphere on a floor, studio map
-[camera]
-position = {STUDIO_CAMERA["position"]}
-look_at = {STUDIO_CAMERA["look_at"]}
-fov = {STUDIO_CAMERA["fov_y"]}
-
-[film]
-resolution = [320, 180]
-
-[integrator]
-max_depth = 16
-
-[environment]
+def studio_body(work):
+    return f"""[environment]
 file = "{ASSETS}/studio.hdr"
 
 [materials.floor]
@@ -203,9 +220,6 @@ material = "glass"
 def studio_mitsuba(mi, work):
     T = mi.ScalarTransform4f
     return {
-        "type": "scene",
-        "integrator": path_integrator(16),
-        "sensor": perspective(mi, **STUDIO_CAMERA, width=320, height=180),
         # prism's map: u = 0.5 looks along +z, u grows towards +x; Mitsuba's:
         # u = atan2(x, -z) / 2π. Mirroring x maps one onto the other.
         "sky": {"type": "envmap", "filename": str(ASSETS / "studio.hdr"), "to_world": T().scale([-1, 1, 1])},
@@ -279,20 +293,8 @@ def write_room_objs(work):
     return paths
 
 
-def textured_room_toml():
-    return f"""# tools/peer_scenes.py: scenes/textured-obj.toml's room, its block matte
-[camera]
-position = {ROOM_CAMERA["position"]}
-look_at = {ROOM_CAMERA["look_at"]}
-fov = {ROOM_CAMERA["fov_y"]}
-
-[film]
-resolution = [320, 240]
-
-[integrator]
-max_depth = 12
-
-[materials.tiles]
+def textured_room_body(work):
+    return f"""[materials.tiles]
 type = "diffuse"
 reflectance = 1
 texture = "{ASSETS}/tiles.png"
@@ -312,23 +314,23 @@ reflectance = 0
 
 [[shape]]
 type = "obj"
-file = "{{work}}/room-floor.obj"
+file = "{work}/room-floor.obj"
 material = "tiles"
 
 [[shape]]
 type = "obj"
-file = "{{work}}/room-back_wall.obj"
+file = "{work}/room-back_wall.obj"
 material = "brick"
 
 [[shape]]
 type = "obj"
-file = "{{work}}/room-lamp.obj"
+file = "{work}/room-lamp.obj"
 material = "black"
 emission = {{ rgb = {LAMP_RGB} }}
 
 [[shape]]
 type = "obj"
-file = "{{work}}/room-block.obj"
+file = "{work}/room-block.obj"
 material = "block"
 """
 
@@ -344,9 +346,6 @@ def textured_room_mitsuba(mi, work):
 
     black = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}}
     return {
-        "type": "scene",
-        "integrator": path_integrator(12),
-        "sensor": perspective(mi, **ROOM_CAMERA, width=320, height=240),
         "floor": shape("floor", textured("tiles.png")),
         "wall": shape("back_wall", textured("bricks.png")),
         "lamp": shape("lamp", black, emitter={"type": "area", "radiance": {"type": "rgb", "value": LAMP_RGB}}),
@@ -357,17 +356,18 @@ def textured_room_mitsuba(mi, work):
 SCENES = {
     s.name: s
     for s in [
-        PeerScene("cornell-glass", 256, 256, "the Cornell Box's walls and light around a glass sphere",
-                  cornell_glass_toml, cornell_glass_mitsuba,
+        PeerScene("cornell-glass", "the Cornell Box's walls and light around a glass sphere", 256, 256, 16,
+                  CORNELL_CAMERA, cornell_glass_body, cornell_glass_mitsuba,
                   {"ceiling": (80, 8, 170, 20), "red wall": (12, 80, 30, 170), "green wall": (226, 80, 244, 170),
                    "back wall": (60, 60, 100, 100), "sphere": (110, 150, 146, 186), "floor": (60, 236, 200, 248)}),
-        PeerScene("studio", 320, 180, "a diffuse and a glass sphere on a floor under the studio map",
-                  studio_toml, studio_mitsuba,
+        PeerScene("studio", "a diffuse and a glass sphere on a floor under the studio map", 320, 180, 16,
+                  STUDIO_CAMERA, studio_body, studio_mitsuba,
                   {"matte sphere": (95, 60, 125, 100), "glass sphere": (195, 60, 225, 100),
                    "floor front": (100, 160, 220, 175), "sky": (0, 0, 320, 12)}),
-        PeerScene("textured-room", 320, 240, "scenes/textured-obj.toml's textured room, its glossy block matte",
-                  textured_room_toml, textured_room_mitsuba,
-                  {"floor": (120, 200, 220, 235), "wall": (40, 40, 140, 100), "block": (60, 130, 100, 160)}),
+        PeerScene("textured-room", "scenes/textured-obj.toml's textured room, its glossy block matte", 320, 240, 12,
+                  ROOM_CAMERA, textured_room_body, textured_room_mitsuba,
+                  {"floor": (120, 200, 220, 235), "wall": (40, 40, 140, 100), "block": (60, 130, 100, 160)},
+                  meshes=write_room_objs),
     ]
 }
 
@@ -376,8 +376,7 @@ def write_prism_scene(scene, work):
     """Writes the prism scene file (and any meshes it needs) into `work`."""
     work = Path(work)
     work.mkdir(parents=True, exist_ok=True)
-    if scene.name == "textured-room":
-        write_room_objs(work)
+    scene.meshes(work)
     path = work / f"{scene.name}.toml"
-    path.write_text(scene.prism_toml().replace("{work}", str(work)))
+    path.write_text(scene.prism_toml(work))
     return path
