@@ -60,6 +60,15 @@ impl Sphere {
 
     /// The nearest hit within (0, t_max).
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<SphereHit> {
+        let (t, local) = self.nearest(ray, t_max)?;
+        Some(self.hit_at(local, t))
+    }
+
+    /// The distance to the nearest hit within (0, t_max), and the hit
+    /// point relative to the centre: all a shadow ray, or a hit that a
+    /// nearer one will replace, needs. The rest (`hit_at`: normal,
+    /// coordinates by atan2 and acos) is made for the closest hit only.
+    pub fn nearest(&self, ray: &Ray, t_max: f32) -> Option<(f32, DVec3)> {
         let o = ray.origin.as_dvec3() - self.centre.as_dvec3();
         let d = ray.dir.as_dvec3();
         let r = self.radius as f64;
@@ -90,7 +99,7 @@ impl Sphere {
         if !(t > 0.0 && t < t_max as f64 && t.is_finite()) {
             return None;
         }
-        Some(self.hit_at(o + d * t, t as f32))
+        Some((t as f32, o + d * t))
     }
 
     /// The hit at `local` (relative to the centre, near the surface): the
@@ -217,26 +226,26 @@ impl SphereSet {
     /// The nearest hit within (0, t_max): the sphere's index (as given to
     /// `new`) and where.
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<(u32, SphereHit)> {
-        let mut best: Option<(u32, SphereHit)> = None;
+        let mut best = None;
         let mut t_max = t_max;
         self.visit(ray, |id, s| {
-            if let Some(h) = s.intersect(ray, t_max) {
-                t_max = h.t;
-                best = Some((id, h));
+            if let Some((t, local)) = s.nearest(ray, t_max) {
+                t_max = t;
+                best = Some((id, s, local));
             }
             false
         });
-        best
+        best.map(|(id, s, local)| (id, s.hit_at(local, t_max)))
     }
 
     /// Whether a sphere lies on the ray within (0, ray.t_max).
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.visit(ray, |_, s| s.intersect(ray, ray.t_max).is_some())
+        self.visit(ray, |_, s| s.nearest(ray, ray.t_max).is_some())
     }
 
     /// Calls `test` on the spheres whose boxes the ray meets, until it
     /// returns true (whether it did).
-    fn visit(&self, ray: &Ray, mut test: impl FnMut(u32, &Sphere) -> bool) -> bool {
+    fn visit<'s>(&'s self, ray: &Ray, mut test: impl FnMut(u32, &'s Sphere) -> bool) -> bool {
         if self.nodes.is_empty() || !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return false;
         }
