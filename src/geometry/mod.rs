@@ -1,6 +1,7 @@
 //! Rays, bounding boxes, the watertight ray/triangle test, robust ray
 //! origins and the bounding volume hierarchy.
 
+pub mod angles;
 pub mod bvh;
 pub mod frame;
 pub mod huge_pages;

@@ -11,7 +11,7 @@
 
 use glam::{DVec3, Mat3, Vec2, Vec3};
 
-use super::{gamma, Aabb, Ray};
+use super::{angles, gamma, Aabb, Ray};
 
 /// A sphere with an orientation for its texture coordinates: the local
 /// z axis is the pole (v = 0 at +z), u runs round it from +x.
@@ -122,13 +122,13 @@ impl Sphere {
     /// Texture coordinates and ∂p/∂u at the point of outward normal `n`.
     pub fn coordinates(&self, n: Vec3) -> (Vec2, Vec3) {
         let l = self.rotation.transpose() * n;
-        let phi = l.y.atan2(l.x);
+        let phi = angles::atan2(l.y, l.x);
         let phi = if phi < 0.0 {
             phi + 2.0 * std::f32::consts::PI
         } else {
             phi
         };
-        let theta = l.z.clamp(-1.0, 1.0).acos();
+        let theta = angles::polar_angle(l.z, l.x, l.y);
         let uv = Vec2::new(
             phi / (2.0 * std::f32::consts::PI),
             theta / std::f32::consts::PI,

@@ -10,6 +10,8 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
+use crate::geometry::angles;
+
 /// A piecewise-constant distribution over [0, 1)² on a grid of cells.
 #[derive(Clone, Debug)]
 struct Distribution2d {
@@ -150,8 +152,8 @@ impl SphericalDistribution {
         // Undo the rotation about +y.
         let x = c * w.x - s * w.z;
         let z = s * w.x + c * w.z;
-        let u = 0.5 * (1.0 + x.atan2(z) / PI);
-        let v = w.y.clamp(-1.0, 1.0).acos() / PI;
+        let u = 0.5 * (1.0 + angles::atan2(x, z) / PI);
+        let v = angles::polar_angle(w.y, x, z) / PI;
         Vec2::new(u.rem_euclid(1.0), v.min(1.0 - f32::EPSILON))
     }
 
