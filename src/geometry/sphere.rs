@@ -67,7 +67,7 @@ impl Sphere {
     /// The distance to the nearest hit within (0, t_max), and the hit
     /// point relative to the centre: all a shadow ray, or a hit that a
     /// nearer one will replace, needs. The rest (`hit_at`: normal,
-    /// coordinates by atan2 and acos) is made for the closest hit only.
+    /// texture coordinates by two atan2s) is made for the closest hit only.
     pub fn nearest(&self, ray: &Ray, t_max: f32) -> Option<(f32, DVec3)> {
         let o = ray.origin.as_dvec3() - self.centre.as_dvec3();
         let d = ray.dir.as_dvec3();

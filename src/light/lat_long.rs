@@ -178,7 +178,7 @@ impl SphericalDistribution {
     }
 
     /// `pdf(w)` for a `w` already known to lie in `cell`: the cell's
-    /// inverse map (atan2 and acos) is most of what `pdf` costs.
+    /// inverse map (two atan2s) is most of what `pdf` costs.
     pub fn pdf_in_cell(&self, (i, j): (usize, usize), w: Vec3) -> f32 {
         // Not √(1 − y²): near the poles that cancels to a few bits, and
         // the density would disagree with the one `sample` gave.
