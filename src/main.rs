@@ -96,8 +96,8 @@ enum Command {
         /// Direct-lighting strategy of the path tracer (overrides integrator.strategy).
         #[arg(long, value_enum)]
         strategy: Option<StrategyArg>,
-        /// Continuations per camera sample from its first surface, for the
-        /// path tracer (overrides integrator.split).
+        /// Continuations per camera sample from its first surface that is
+        /// not a Dirac one, for the path tracers (overrides integrator.split).
         #[arg(long, value_name = "N")]
         split: Option<u32>,
         /// Wavelength range of the spectral buckets in nm, as MIN,MAX
@@ -206,9 +206,9 @@ enum Command {
         /// reference), its CSV OUT/prism-NAME.csv.
         #[arg(long, value_enum, value_delimiter = ',')]
         integrator: Vec<IntegratorKind>,
-        /// Continuations per camera sample from its first surface, for the
-        /// path tracer (overrides integrator.split; the reference is rendered
-        /// with it too).
+        /// Continuations per camera sample from its first surface that is
+        /// not a Dirac one, for the path tracers (overrides integrator.split;
+        /// the reference is rendered with it too).
         #[arg(long, value_name = "N")]
         split: Option<u32>,
         /// Adaptive sampling in every rung (not the reference): each

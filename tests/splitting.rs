@@ -1,8 +1,8 @@
 //! Splitting: a path tracer's camera sample that continues from its first
-//! surface along several BSDF samples converges to the same image as one
-//! that does not — also where the first surface is dispersive glass and
-//! some branches keep only their hero wavelength — and has less noise per
-//! sample.
+//! surface that is not a Dirac one along several BSDF samples converges to
+//! the same image as one that does not — also behind dispersive glass,
+//! where each wavelength's path splits on its own, and with caustics from
+//! photons — and has less noise per sample.
 
 use crate::common;
 
@@ -11,8 +11,12 @@ use common::{region_mean, render_film};
 use prism::load::Loaded;
 
 fn with_split(text: &str, split: u32) -> Loaded {
+    split_by(text, "path", split)
+}
+
+fn split_by(text: &str, kind: &str, split: u32) -> Loaded {
     common::scene(&format!(
-        "{text}\n[integrator]\ntype = \"path\"\nsplit = {split}\n"
+        "{text}\n[integrator]\ntype = \"{kind}\"\nsplit = {split}\n"
     ))
 }
 
@@ -33,6 +37,21 @@ fn split_paths_agree_with_plain_ones_through_dispersive_glass() {
     let text = GLASS_METAL_SHADING.replace("ior = 1.5\nroughness = 0.3", "ior = \"N-SF11\"");
     assert!(text.contains("N-SF11"));
     assert_split_agrees(&text, 3, "dispersive glass, split 3");
+}
+
+#[test]
+fn split_paths_with_caustics_from_photons_agree_with_plain_ones() {
+    // The photon estimate at the surface where the path splits is counted
+    // once, before the branches; each branch leaves out the caustics it
+    // would find itself, as the path it continues would.
+    let text = GLASS_METAL_SHADING.replace("ior = 1.5\nroughness = 0.3", "ior = \"N-SF11\"");
+    assert!(text.contains("N-SF11"));
+    let what = "path_caustics, dispersive glass, split 3";
+    assert_scenes_agree(
+        &split_by(&text, "path_caustics", 1),
+        &split_by(&text, "path_caustics", 3),
+        what,
+    );
 }
 
 #[test]

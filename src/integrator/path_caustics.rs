@@ -28,7 +28,7 @@
 use std::sync::{Arc, Mutex};
 
 use super::light_path::{self, Scatterer};
-use super::path::{Caustics, PathTracer};
+use super::path::{check_split, Caustics, PathTracer};
 use super::photon_map::{Photon, PhotonMap, PHOTON_BYTES, PHOTON_ROW};
 use super::sppm::{Sppm, SppmParams};
 use super::walk::{Flow, PathContext};
@@ -49,6 +49,9 @@ pub struct PathCaustics {
     /// Camera paths follow each wavelength on its own past the first
     /// smooth dispersive interface (`PathTracer::split_dispersion`).
     pub split_dispersion: bool,
+    /// Continuations per camera sample from its first surface that is not
+    /// a Dirac one (`PathTracer::split`).
+    pub split: u32,
     /// The photon side: its counts, radii and kernels.
     photons: Sppm,
     /// Per scene (keyed by `Scene::id`): where photons are aimed.
@@ -84,6 +87,8 @@ pub struct CausticParams {
     pub alpha: Option<f32>,
     /// As the path tracer's (default true).
     pub split_dispersion: Option<bool>,
+    /// As the path tracer's (default 1).
+    pub split: Option<u32>,
 }
 
 impl Configure for PathCaustics {
@@ -93,6 +98,7 @@ impl Configure for PathCaustics {
         let split_dispersion = spec
             .split_dispersion
             .unwrap_or(PathTracer::default().split_dispersion);
+        let split = check_split(spec.split.unwrap_or(1))?;
         let spec = SppmParams {
             photons: spec.photons,
             radius: spec.radius,
@@ -104,6 +110,7 @@ impl Configure for PathCaustics {
             max_depth: photons.max_depth,
             rr_depth: photons.rr_depth,
             split_dispersion,
+            split,
             photons,
             aim: Arc::default(),
         })
@@ -119,7 +126,9 @@ impl Default for PathCaustics {
 
 impl PartialEq for PathCaustics {
     fn eq(&self, other: &Self) -> bool {
-        self.photons == other.photons && self.split_dispersion == other.split_dispersion
+        self.photons == other.photons
+            && self.split_dispersion == other.split_dispersion
+            && self.split == other.split
     }
 }
 
@@ -195,6 +204,7 @@ impl PixelEstimator for PathCaustics {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
             split_dispersion: self.split_dispersion,
+            split: self.split,
             ..PathTracer::default()
         };
         let mut ctx = PathContext {
