@@ -147,3 +147,34 @@ fn renders(loaded: &Loaded, runs: u64) -> Vec<prism::film::Film> {
         })
         .collect()
 }
+
+/// `text` rendered by integrator `kind` with glass met first followed
+/// along both lobes (`split_glass`) or along one drawn by Fresnel.
+fn split_glass(text: &str, kind: &str, split_glass: bool) -> Loaded {
+    common::scene(&format!(
+        "{text}\n[integrator]\ntype = \"{kind}\"\nsplit_glass = {split_glass}\n"
+    ))
+}
+
+#[test]
+fn glass_followed_along_both_lobes_agrees_with_one_drawn() {
+    // Rough glass (both lobes glossy, each weighted by the Fresnel factor
+    // at the sampled microfacet) and smooth dispersive glass (the
+    // reflection one branch with all four wavelengths, the refraction one
+    // per wavelength), for the path tracer and with caustics from photons.
+    let dispersive = GLASS_METAL_SHADING.replace("ior = 1.5\nroughness = 0.3", "ior = \"N-SF11\"");
+    assert!(dispersive.contains("N-SF11"));
+    for (text, glass) in [
+        (GLASS_METAL_SHADING, "rough"),
+        (dispersive.as_str(), "dispersive"),
+    ] {
+        for kind in ["path", "path_caustics"] {
+            let what = format!("{kind}, {glass} glass, split by lobe or not");
+            assert_scenes_agree(
+                &split_glass(text, kind, false),
+                &split_glass(text, kind, true),
+                &what,
+            );
+        }
+    }
+}

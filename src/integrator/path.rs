@@ -15,8 +15,10 @@ use crate::light::LightSource;
 use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
-use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 use serde::Deserialize;
+
+mod branches;
 
 /// A surface a camera path reached, offered to `radiance_until`'s `stop`.
 pub struct Stop<'a, 'c> {
@@ -65,6 +67,10 @@ pub struct PathTracer {
     /// At the first smooth dispersive interface, follow each wavelength on
     /// its own instead of the hero alone (`Gather::disperse`).
     pub split_dispersion: bool,
+    /// At the first surface, where it is glass (both reflects and
+    /// transmits), follow both lobes, each weighted by the probability of
+    /// choosing it (`Gather::lobe_branches`).
+    pub split_glass: bool,
 }
 
 impl Default for PathTracer {
@@ -75,6 +81,7 @@ impl Default for PathTracer {
             strategy: Strategy::Mis,
             split: 1,
             split_dispersion: true,
+            split_glass: false,
         }
     }
 }
@@ -91,6 +98,9 @@ pub struct PathParams {
     /// Follow each wavelength on its own past the first smooth dispersive
     /// interface (default true).
     pub split_dispersion: Option<bool>,
+    /// Follow both the reflection and the transmission of glass met first
+    /// (default false).
+    pub split_glass: Option<bool>,
 }
 
 impl Configure for PathTracer {
@@ -105,6 +115,7 @@ impl Configure for PathTracer {
             strategy: own.strategy.unwrap_or(d.strategy),
             split,
             split_dispersion: own.split_dispersion.unwrap_or(d.split_dispersion),
+            split_glass: own.split_glass.unwrap_or(d.split_glass),
         })
     }
 }
@@ -365,6 +376,8 @@ pub(super) struct Gather<'t, 's> {
     in_caustic: bool,
     /// The path may still split at a dispersive interface.
     disperses: bool,
+    /// No surface met yet, and glass met first is to be split by lobe.
+    splits_glass: bool,
     /// Leave light samples' shadow rays to be traced later (a stream's),
     /// the light in `unblocked` until then.
     pub(super) defers_shadows: bool,
@@ -374,6 +387,8 @@ pub(super) struct Gather<'t, 's> {
 
 impl<'t, 's> Gather<'t, 's> {
     pub(super) fn new(tracer: &'t PathTracer, stop: Option<StopAt<'s>>, split: u32) -> Self {
+        // `stop` is not carried into branches.
+        let splits_glass = tracer.split_glass && stop.is_none();
         Gather {
             tracer,
             l: SampledSpectrum::ZERO,
@@ -387,6 +402,7 @@ impl<'t, 's> Gather<'t, 's> {
             met_diffuse: false,
             in_caustic: false,
             disperses: tracer.split_dispersion,
+            splits_glass,
             defers_shadows: false,
             shadow: None,
             unblocked: SampledSpectrum::ZERO,
@@ -395,8 +411,8 @@ impl<'t, 's> Gather<'t, 's> {
 
     /// Adds the light sampled at `event`, or keeps it until its shadow ray
     /// is traced (`defers_shadows`; not where the path splits after it).
-    fn add_direct(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) {
-        let defer = (self.defers_shadows && self.split == 1).then_some(&mut self.shadow);
+    fn add_direct(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event, splits: bool) {
+        let defer = (self.defers_shadows && !splits).then_some(&mut self.shadow);
         let direct = self.tracer.direct(ctx, walk, event, defer);
         if self.shadow.is_some() {
             self.unblocked = direct;
@@ -461,6 +477,7 @@ impl Visitor for Gather<'_, '_> {
         match event.at {
             Scatterer::Medium { .. } => {
                 (self.met_diffuse, self.in_caustic) = (false, false);
+                self.splits_glass = false;
                 self.l += tracer.direct(ctx, walk, event, None);
                 Flow::Go
             }
@@ -481,13 +498,23 @@ impl Visitor for Gather<'_, '_> {
                     }
                 }
                 self.caustics_at(ctx, walk, hit, event.wo, bsdf);
+                let by_lobe = std::mem::take(&mut self.splits_glass) && bsdf.has_two_lobes();
+                let by_split = self.split > 1 && !bsdf.is_specular();
                 if self.in_caustic {
                     // Keep the dimensions of later bounces aligned.
                     ctx.sampler.skip_4d();
                 } else {
-                    self.add_direct(ctx, walk, event);
+                    self.add_direct(ctx, walk, event, by_lobe || by_split);
                 }
-                if self.split > 1 && !bsdf.is_specular() {
+                if by_lobe {
+                    // Which of reflection and refraction the first glass
+                    // takes is much of the noise where one lobe shows a
+                    // bright light (a softbox in a diamond's facet): both
+                    // are followed.
+                    self.l += self.lobe_branches(ctx, walk, event);
+                    return Flow::End;
+                }
+                if by_split {
                     // The first surface that is not a Dirac one: the sample
                     // splits into `split` continuations, each with its own copy of the path. Its
                     // direct light stays one estimate: light sampling in every
@@ -519,26 +546,9 @@ impl Visitor for Gather<'_, '_> {
     }
 
     fn disperse(&mut self, ctx: &mut PathContext, walk: &Walk, at: &Dispersion) {
-        // Each wavelength goes on alone, with a branch of the sampler, and
-        // brings back its own light: the sample keeps all four where the
-        // hero alone would carry its one four times over (colour grain
-        // through glass). Branch k's light is wavelength k's.
-        let mut l = SampledSpectrum::ZERO;
-        for k in 0..N_WAVELENGTHS {
-            let n = N_WAVELENGTHS as u32;
-            let (l_k, _) = self.branch(
-                ctx,
-                walk,
-                (k as u32, n),
-                self.split,
-                |ctx_k, branch, visitor| {
-                    visitor.disperses = false;
-                    at.follow(ctx_k, branch, k, visitor);
-                },
-            );
-            l[k] = l_k.x;
-        }
-        self.l += l;
+        // Glass met first: its two lobes are followed apart.
+        let by_lobe = std::mem::take(&mut self.splits_glass);
+        self.l += self.dispersion_branches(ctx, walk, at, by_lobe);
     }
 
     fn escaped(&mut self, ctx: &mut PathContext, walk: &Walk) {
@@ -555,61 +565,5 @@ impl Visitor for Gather<'_, '_> {
                 });
             self.l += walk.flight.weight(ctx.wl) * le * weight;
         }
-    }
-}
-
-impl<'t, 's> Gather<'t, 's> {
-    /// Branch `k` of `n` of this path: its own copy of the walk and of the
-    /// wavelengths, branch `k` of the sampler and a visitor with this one's
-    /// state, which `go` takes on from here. The branch's light,
-    /// and the wavelengths it ended with.
-    fn branch(
-        &self,
-        ctx: &mut PathContext,
-        walk: &Walk,
-        (k, n): (u32, u32),
-        split: u32,
-        go: impl FnOnce(&mut PathContext, &mut Walk, &mut Gather<'t, 's>),
-    ) -> (SampledSpectrum, SampledWavelengths) {
-        let mut branch = walk.clone();
-        let mut wl_k = *ctx.wl;
-        let mut sampler_k = ctx.sampler.branch(k, n);
-        let mut ctx_k = PathContext {
-            scene: ctx.scene,
-            wl: &mut wl_k,
-            sampler: &mut sampler_k,
-            counters: &mut *ctx.counters,
-        };
-        // This path's state, nothing gathered yet, no `stop`, no splitting.
-        let mut visitor = Gather {
-            specular: self.specular,
-            prev_bsdf_pdf: self.prev_bsdf_pdf,
-            caustics: self.caustics,
-            met_diffuse: self.met_diffuse,
-            in_caustic: self.in_caustic,
-            disperses: self.disperses,
-            ..Gather::new(self.tracer, None, split)
-        };
-        go(&mut ctx_k, &mut branch, &mut visitor);
-        (visitor.l, wl_k)
-    }
-
-    /// The `split` continuations of the path from the surface of `event`,
-    /// each with its own copy of the path, wavelengths and a branch of the
-    /// sampler; their mean, each branch's light per its wavelengths' density.
-    fn branches(&self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> SampledSpectrum {
-        let mut per_density = SampledSpectrum::ZERO;
-        for k in 0..self.split {
-            let (l_k, wl_k) =
-                self.branch(ctx, walk, (k, self.split), 1, |ctx_k, branch, visitor| {
-                    let u = ctx_k.sampler.next_4d();
-                    if walk::scatter_from_surface(ctx_k, branch, event, u, visitor) {
-                        walk::walk(ctx_k, branch, visitor);
-                    }
-                });
-            let live = wl_k.pdf.cmpgt(SampledSpectrum::ZERO);
-            per_density += SampledSpectrum::select(live, l_k / wl_k.pdf, SampledSpectrum::ZERO);
-        }
-        per_density * ctx.wl.pdf / self.split as f32
     }
 }

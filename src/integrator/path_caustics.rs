@@ -52,6 +52,8 @@ pub struct PathCaustics {
     /// Continuations per camera sample from its first surface that is not
     /// a Dirac one (`PathTracer::split`).
     pub split: u32,
+    /// Follow both lobes of glass met first (`PathTracer::split_glass`).
+    pub split_glass: bool,
     /// The photon side: its counts, radii and kernels.
     photons: Sppm,
     /// Per scene (keyed by `Scene::id`): where photons are aimed.
@@ -89,6 +91,8 @@ pub struct CausticParams {
     pub split_dispersion: Option<bool>,
     /// As the path tracer's (default 1).
     pub split: Option<u32>,
+    /// As the path tracer's (default false).
+    pub split_glass: Option<bool>,
 }
 
 impl Configure for PathCaustics {
@@ -99,6 +103,9 @@ impl Configure for PathCaustics {
             .split_dispersion
             .unwrap_or(PathTracer::default().split_dispersion);
         let split = check_split(spec.split.unwrap_or(1))?;
+        let split_glass = spec
+            .split_glass
+            .unwrap_or(PathTracer::default().split_glass);
         let spec = SppmParams {
             photons: spec.photons,
             radius: spec.radius,
@@ -111,6 +118,7 @@ impl Configure for PathCaustics {
             rr_depth: photons.rr_depth,
             split_dispersion,
             split,
+            split_glass,
             photons,
             aim: Arc::default(),
         })
@@ -129,6 +137,7 @@ impl PartialEq for PathCaustics {
         self.photons == other.photons
             && self.split_dispersion == other.split_dispersion
             && self.split == other.split
+            && self.split_glass == other.split_glass
     }
 }
 
@@ -205,6 +214,7 @@ impl PixelEstimator for PathCaustics {
             rr_depth: self.rr_depth,
             split_dispersion: self.split_dispersion,
             split: self.split,
+            split_glass: self.split_glass,
             ..PathTracer::default()
         };
         let mut ctx = PathContext {

@@ -333,6 +333,7 @@ impl Sppm {
             split: 1,
             // `stop` ends the path at its visible point: no branches.
             split_dispersion: false,
+            split_glass: false,
         };
         // At the visible point the path ends: light sampling alone finds
         // the direct light (no BSDF sample follows to share it with).

@@ -182,6 +182,59 @@ impl Dispersion<'_> {
             self::walk(ctx, walk, visitor);
         }
     }
+
+    /// `follow`, along the refraction alone, weighted by the probability
+    /// one sample would have refracted: with `reflect_all`, the surface's
+    /// two lobes followed apart.
+    pub fn follow_refraction(
+        &self,
+        ctx: &mut PathContext,
+        walk: &mut Walk,
+        k: usize,
+        visitor: &mut impl Visitor,
+    ) {
+        *ctx.wl = ctx.wl.led_by(k);
+        walk.flight.beta = lanes_led_by(walk.flight.beta, k);
+        let eta = lanes_led_by(self.eta, k);
+        let bsdf = bsdf_at(ctx.scene, self.hit, -walk.ray.dir, ctx.wl, eta);
+        self.follow_lobe(ctx, walk, &bsdf, false, visitor);
+    }
+
+    /// The reflection from this surface, which does not disperse: one path
+    /// keeps all four wavelengths (`ctx.wl` as the path arrived), weighted
+    /// by the probability one sample would have reflected.
+    pub fn reflect_all(&self, ctx: &mut PathContext, walk: &mut Walk, visitor: &mut impl Visitor) {
+        // Building a dispersive BSDF ends the secondaries, which only
+        // refraction must: the copy's ending is dropped.
+        let mut wl = *ctx.wl;
+        let bsdf = bsdf_at(ctx.scene, self.hit, -walk.ray.dir, &mut wl, self.eta);
+        self.follow_lobe(ctx, walk, &bsdf, true, visitor);
+    }
+
+    fn follow_lobe(
+        &self,
+        ctx: &mut PathContext,
+        walk: &mut Walk,
+        bsdf: &Bsdf,
+        reflect: bool,
+        visitor: &mut impl Visitor,
+    ) {
+        let event = Event {
+            at: Scatterer::Surface {
+                hit: self.hit,
+                bsdf,
+                medium: self.medium,
+            },
+            wo: -walk.ray.dir,
+        };
+        if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+            return;
+        }
+        let u = visitor.numbers(ctx, walk);
+        if scatter_along_lobe(ctx, walk, &event, reflect, u, visitor) {
+            self::walk(ctx, walk, visitor);
+        }
+    }
 }
 
 /// Walks the path from `walk` until it escapes, is absorbed, loses Russian
@@ -328,15 +381,51 @@ pub fn scatter_from_surface(
     u: [f32; 4],
     visitor: &mut impl Visitor,
 ) -> bool {
+    let [u0, u1, uc, u_rr] = u;
+    let mode = visitor.mode();
+    let sample = |bsdf: &Bsdf| {
+        bsdf.sample(event.wo, uc, (u0, u1), mode)
+            .map(|bs| (bs, 1.0))
+    };
+    scatter_by(ctx, walk, event, sample, u_rr, visitor)
+}
+
+/// `scatter_from_surface` along one lobe of a BSDF that `has_two_lobes`:
+/// reflection (`reflect`) or transmission, weighted by the probability
+/// one sample would have taken it (`Bsdf::sample_lobe`). A path that
+/// follows both estimates what one sample does.
+pub fn scatter_along_lobe(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    event: &Event,
+    reflect: bool,
+    [u0, u1, _, u_rr]: [f32; 4],
+    visitor: &mut impl Visitor,
+) -> bool {
+    let mode = visitor.mode();
+    let sample = |bsdf: &Bsdf| bsdf.sample_lobe(event.wo, reflect, (u0, u1), mode);
+    scatter_by(ctx, walk, event, sample, u_rr, visitor)
+}
+
+/// The rest of a bounce once `sample` has drawn the direction from the
+/// event's BSDF (with a weight the sample's value also carries).
+#[inline(always)]
+fn scatter_by(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    event: &Event,
+    sample: impl FnOnce(&Bsdf) -> Option<(crate::material::BsdfSample, f32)>,
+    u_rr: f32,
+    visitor: &mut impl Visitor,
+) -> bool {
     let Scatterer::Surface { hit, bsdf, medium } = event.at else {
         return false;
     };
-    let [u0, u1, uc, u_rr] = u;
     let mode = visitor.mode();
-    let Some(bs) = bsdf.sample(event.wo, uc, (u0, u1), mode) else {
+    let Some((bs, weight)) = sample(bsdf) else {
         return false;
     };
-    walk.flight.beta *= bs.f * (bsdf.cos_theta(bs.wi) / bs.pdf);
+    walk.flight.beta *= bs.f * (weight * bsdf.cos_theta(bs.wi) / bs.pdf);
     visitor.scattered(ctx.scene, walk, event, bs.wi, bs.pdf, bs.is_specular());
     walk.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
     // Transmission through a dielectric moves the path into or out of it.

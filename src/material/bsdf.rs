@@ -284,6 +284,47 @@ impl Bsdf {
             return None;
         }
         let smp = self.lobe.sample(wo_l, uc, u, mode)?;
+        self.in_world(wo, wo_l, smp, mode)
+    }
+
+    /// Whether the BSDF is a dielectric's that both reflects and
+    /// transmits, so that a path may follow each lobe (`sample_lobe`).
+    pub fn has_two_lobes(&self) -> bool {
+        matches!(&self.lobe, Lobe::Dielectric(d) if d.has_two_lobes())
+    }
+
+    /// For a BSDF that `has_two_lobes`: a sample of its reflection
+    /// (`reflect`) or of its transmission, with the probability `sample`
+    /// gives that lobe there. The two samples, each weighted by its
+    /// probability, estimate what one sample does.
+    pub fn sample_lobe(
+        &self,
+        wo: Vec3,
+        reflect: bool,
+        u: (f32, f32),
+        mode: TransportMode,
+    ) -> Option<(BsdfSample, f32)> {
+        let Lobe::Dielectric(lobe) = &self.lobe else {
+            return None;
+        };
+        let wo_l = self.local(wo);
+        if wo_l.z == 0.0 {
+            return None;
+        }
+        let (smp, probability) = lobe.sample_lobe(wo_l, reflect, u, mode)?;
+        Some((self.in_world(wo, wo_l, smp, mode)?, probability))
+    }
+
+    /// A lobe's sample in world space, or None where it would cross the
+    /// geometric surface the wrong way or carry nothing.
+    #[inline(always)]
+    fn in_world(
+        &self,
+        wo: Vec3,
+        wo_l: Vec3,
+        smp: LobeSample,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
         let wi = self.frame.to_world(smp.wi);
         if !self.geometry_agrees(wo, wi, wo_l.z * smp.wi.z > 0.0) {
             return None;

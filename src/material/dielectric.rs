@@ -170,22 +170,59 @@ impl DielectricLobe {
         u: (f32, f32),
         mode: TransportMode,
     ) -> Option<LobeSample> {
+        self.sample_choosing(wo, |r| uc < r, u, mode)
+            .map(|(sample, _)| sample)
+    }
+
+    /// Whether both lobes may be taken: not an index-matched boundary,
+    /// which only transmits.
+    pub fn has_two_lobes(&self) -> bool {
+        !self.index_matched
+    }
+
+    /// The sample of one lobe, reflection (`reflect`) or transmission,
+    /// with the probability `sample` would have given that lobe: weighted
+    /// by it, the two lobes' samples together estimate what one of them
+    /// drawn by `sample` does (the hero's Fresnel factor, at the sampled
+    /// microfacet where the glass is rough).
+    pub fn sample_lobe(
+        &self,
+        wo: Vec3,
+        reflect: bool,
+        u: (f32, f32),
+        mode: TransportMode,
+    ) -> Option<(LobeSample, f32)> {
+        let (sample, r) = self.sample_choosing(wo, |_| reflect, u, mode)?;
+        Some((sample, if reflect { r } else { 1.0 - r }))
+    }
+
+    /// A sample, the lobe chosen by `reflects(r)` where r is the hero's
+    /// probability of reflection; with that r.
+    #[inline(always)]
+    fn sample_choosing(
+        &self,
+        wo: Vec3,
+        reflects: impl FnOnce(f32) -> bool,
+        u: (f32, f32),
+        mode: TransportMode,
+    ) -> Option<(LobeSample, f32)> {
         let eta = self.eta.x;
         if self.is_specular() {
             let r = fresnel::dielectric(wo.z, eta);
-            if uc < r {
+            if reflects(r) {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
                 let f = self
                     .eta
                     .to_array()
                     .map(|e| fresnel::dielectric(wo.z, e) / wi.z.abs());
-                return Some(LobeSample {
+                let sample = LobeSample {
                     wi,
                     f: SampledSpectrum::from_array(f),
                     pdf: r,
                     flags: BsdfFlags::REFLECTION | BsdfFlags::SPECULAR,
                     eta: 1.0,
-                });
+                };
+                return Some((sample, r));
             }
             let (wi, etap) = refract(wo, Vec3::Z, eta)?;
             if wi.z == 0.0 {
@@ -199,40 +236,33 @@ impl DielectricLobe {
                 .eta
                 .to_array()
                 .map(|e| (1.0 - fresnel::dielectric(wo.z, e)) / wi.z.abs() / scale);
-            return Some(LobeSample {
+            let sample = LobeSample {
                 wi,
                 f: SampledSpectrum::from_array(f) * self.tint,
                 pdf: 1.0 - r,
                 flags: BsdfFlags::TRANSMISSION | BsdfFlags::SPECULAR,
                 eta: etap,
-            });
+            };
+            return Some((sample, r));
         }
         let wm = self.ggx.sample_wm(wo, u);
         let r = fresnel::dielectric(wo.dot(wm), eta);
-        if uc < r {
+        if reflects(r) {
             let wi = reflect(wo, wm);
             if wi.z * wo.z <= 0.0 {
                 return None;
             }
             let flags = BsdfFlags::REFLECTION | BsdfFlags::GLOSSY;
-            Some(LobeSample::evaluated(
-                wi,
-                self.eval(wo, wi, mode),
-                flags,
-                1.0,
-            ))
+            let sample = LobeSample::evaluated(wi, self.eval(wo, wi, mode), flags, 1.0);
+            Some((sample, r))
         } else {
             let (wi, etap) = refract(wo, wm, eta)?;
             if wi.z * wo.z >= 0.0 || wi.z == 0.0 {
                 return None;
             }
             let flags = BsdfFlags::TRANSMISSION | BsdfFlags::GLOSSY;
-            Some(LobeSample::evaluated(
-                wi,
-                self.eval(wo, wi, mode),
-                flags,
-                etap,
-            ))
+            let sample = LobeSample::evaluated(wi, self.eval(wo, wi, mode), flags, etap);
+            Some((sample, r))
         }
     }
 }
