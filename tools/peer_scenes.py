@@ -271,6 +271,13 @@ def room_objects():
     return {n: (positions, uvs, faces) for n, faces in objects.items()}
 
 
+ROOM_PARTS = ("floor", "back_wall", "lamp", "block")
+
+
+def room_obj_path(work, name):
+    return Path(work) / f"room-{name}.obj"
+
+
 def write_room_objs(work):
     """Each object of room.obj as its own OBJ of triangles (Mitsuba reads an
     OBJ as one shape of one material); returns {name: path}."""
@@ -287,7 +294,7 @@ def write_room_objs(work):
         for face in faces:
             corners = [f"{used_p[p]}/{used_t[t]}" if t is not None else str(used_p[p]) for p, t in face]
             lines += [f"f {corners[0]} {corners[k]} {corners[k + 1]}" for k in range(1, len(corners) - 1)]
-        path = Path(work) / f"room-{name}.obj"
+        path = room_obj_path(work, name)
         path.write_text("\n".join(lines) + "\n")
         paths[name] = path
     return paths
@@ -336,7 +343,10 @@ material = "block"
 
 
 def textured_room_mitsuba(mi, work):
-    paths = write_room_objs(work)
+    # The prism scene's `meshes` hook wrote them where the scene was written.
+    paths = {name: room_obj_path(work, name) for name in ROOM_PARTS}
+    if not all(p.exists() for p in paths.values()):
+        paths = write_room_objs(work)
 
     def textured(png):
         return {"type": "diffuse", "reflectance": {"type": "bitmap", "filename": str(ASSETS / png)}}
