@@ -81,7 +81,7 @@ impl Default for PathTracer {
             strategy: Strategy::Mis,
             split: 1,
             split_dispersion: true,
-            split_glass: false,
+            split_glass: true,
         }
     }
 }
@@ -99,7 +99,7 @@ pub struct PathParams {
     /// interface (default true).
     pub split_dispersion: Option<bool>,
     /// Follow both the reflection and the transmission of glass met first
-    /// (default false).
+    /// (default true).
     pub split_glass: Option<bool>,
 }
 

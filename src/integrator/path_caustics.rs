@@ -91,7 +91,7 @@ pub struct CausticParams {
     pub split_dispersion: Option<bool>,
     /// As the path tracer's (default 1).
     pub split: Option<u32>,
-    /// As the path tracer's (default false).
+    /// As the path tracer's (default true).
     pub split_glass: Option<bool>,
 }
 
