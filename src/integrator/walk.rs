@@ -174,10 +174,7 @@ impl Dispersion<'_> {
         k: usize,
         visitor: &mut impl Visitor,
     ) {
-        *ctx.wl = ctx.wl.led_by(k);
-        walk.flight.beta = lanes_led_by(walk.flight.beta, k);
-        let eta = lanes_led_by(self.eta, k);
-        let bsdf = bsdf_at(ctx.scene, self.hit, -walk.ray.dir, ctx.wl, eta);
+        let bsdf = self.led_by(ctx, walk, k);
         if at_surface(ctx, walk, self.hit, &bsdf, self.medium, visitor) {
             self::walk(ctx, walk, visitor);
         }
@@ -193,10 +190,7 @@ impl Dispersion<'_> {
         k: usize,
         visitor: &mut impl Visitor,
     ) {
-        *ctx.wl = ctx.wl.led_by(k);
-        walk.flight.beta = lanes_led_by(walk.flight.beta, k);
-        let eta = lanes_led_by(self.eta, k);
-        let bsdf = bsdf_at(ctx.scene, self.hit, -walk.ray.dir, ctx.wl, eta);
+        let bsdf = self.led_by(ctx, walk, k);
         self.follow_lobe(ctx, walk, &bsdf, false, visitor);
     }
 
@@ -209,6 +203,15 @@ impl Dispersion<'_> {
         let mut wl = *ctx.wl;
         let bsdf = bsdf_at(ctx.scene, self.hit, -walk.ray.dir, &mut wl, self.eta);
         self.follow_lobe(ctx, walk, &bsdf, true, visitor);
+    }
+
+    /// Turns `walk` and `ctx.wl` into the path led by wavelength `k`; the
+    /// surface's BSDF for it.
+    fn led_by(&self, ctx: &mut PathContext, walk: &mut Walk, k: usize) -> Bsdf {
+        *ctx.wl = ctx.wl.led_by(k);
+        walk.flight.beta = lanes_led_by(walk.flight.beta, k);
+        let eta = lanes_led_by(self.eta, k);
+        bsdf_at(ctx.scene, self.hit, -walk.ray.dir, ctx.wl, eta)
     }
 
     fn follow_lobe(

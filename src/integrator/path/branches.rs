@@ -62,8 +62,7 @@ impl<'t, 's> Gather<'t, 's> {
                         walk::walk(ctx_k, branch, visitor);
                     }
                 });
-            let live = wl_k.pdf.cmpgt(SampledSpectrum::ZERO);
-            per_density += SampledSpectrum::select(live, l_k / wl_k.pdf, SampledSpectrum::ZERO);
+            per_density += per_wavelength_density(l_k, &wl_k);
         }
         per_density * ctx.wl.pdf / self.split as f32
     }
@@ -86,15 +85,13 @@ impl<'t, 's> Gather<'t, 's> {
                 (k as u32, 2),
                 self.split,
                 |ctx_k, branch, visitor| {
-                    visitor.splits_glass = false;
                     let u = ctx_k.sampler.next_4d();
                     if walk::scatter_along_lobe(ctx_k, branch, event, reflect, u, visitor) {
                         walk::walk(ctx_k, branch, visitor);
                     }
                 },
             );
-            let live = wl_k.pdf.cmpgt(SampledSpectrum::ZERO);
-            per_density += SampledSpectrum::select(live, l_k / wl_k.pdf, SampledSpectrum::ZERO);
+            per_density += per_wavelength_density(l_k, &wl_k);
         }
         per_density * ctx.wl.pdf
     }
@@ -142,9 +139,16 @@ impl<'t, 's> Gather<'t, 's> {
                     at.reflect_all(ctx_k, branch, visitor);
                 },
             );
-            let live = wl_r.pdf.cmpgt(SampledSpectrum::ZERO);
-            l += SampledSpectrum::select(live, l_r / wl_r.pdf, SampledSpectrum::ZERO) * ctx.wl.pdf;
+            l += per_wavelength_density(l_r, &wl_r) * ctx.wl.pdf;
         }
         l
     }
+}
+
+/// A branch's light per the density of the wavelengths it ended with (zero
+/// at wavelengths it ended), for a sum over branches that may have ended
+/// different secondaries.
+fn per_wavelength_density(l: SampledSpectrum, wl: &SampledWavelengths) -> SampledSpectrum {
+    let live = wl.pdf.cmpgt(SampledSpectrum::ZERO);
+    SampledSpectrum::select(live, l / wl.pdf, SampledSpectrum::ZERO)
 }
