@@ -69,27 +69,35 @@ pub struct PhotonMap {
     spectral_radius: f32,
 }
 
-/// Photons by grid cell: cells of twice the radius, hashed into a table;
-/// each bucket lists its photons in emission order (so a gather sums them
-/// in a fixed order, whatever the thread count).
+/// Photons by grid cell: cells of twice the radius, hashed into a table.
+/// The map keeps its photons bucket after bucket, each bucket's in emission
+/// order (so a gather sums them in a fixed order, whatever the thread
+/// count): a gather reads a bucket's photons one after another, not
+/// scattered over the whole map (which cost `path_caustics` a cache miss
+/// per photon tested).
 #[derive(Debug, Default)]
 struct HashGrid {
     inv_cell: f32,
     mask: usize,
-    /// Bucket b holds `indices[starts[b]..starts[b + 1]]`.
+    /// Bucket b holds the map's photons `starts[b]..starts[b + 1]`.
     starts: Vec<u32>,
-    indices: Vec<u32>,
 }
 
 impl HashGrid {
-    fn build(points: impl Iterator<Item = Vec3> + Clone, count: usize, cell: f32) -> Self {
+    /// The grid of `count` points, and the order to keep them in: the
+    /// index of each point, bucket after bucket.
+    fn build(
+        points: impl Iterator<Item = Vec3> + Clone,
+        count: usize,
+        cell: f32,
+    ) -> (Self, Vec<u32>) {
         let size = (2 * count).next_power_of_two().max(1);
         let mut grid = Self {
             inv_cell: 1.0 / cell,
             mask: size - 1,
             starts: vec![0; size + 1],
-            indices: vec![0; count],
         };
+        let mut order = vec![0; count];
         for p in points.clone() {
             let b = grid.bucket(grid.cell(p));
             grid.starts[b + 1] += 1;
@@ -100,10 +108,10 @@ impl HashGrid {
         let mut next = grid.starts.clone();
         for (i, p) in points.enumerate() {
             let b = grid.bucket(grid.cell(p));
-            grid.indices[next[b] as usize] = i as u32;
+            order[next[b] as usize] = i as u32;
             next[b] += 1;
         }
-        grid
+        (grid, order)
     }
 
     fn cell(&self, p: Vec3) -> IVec3 {
@@ -137,8 +145,9 @@ impl HashGrid {
         (out, n)
     }
 
-    fn bucket_items(&self, b: usize) -> &[u32] {
-        &self.indices[self.starts[b] as usize..self.starts[b + 1] as usize]
+    /// Where bucket `b`'s photons lie in the map.
+    fn bucket_range(&self, b: usize) -> std::ops::Range<usize> {
+        self.starts[b] as usize..self.starts[b + 1] as usize
     }
 }
 
@@ -177,8 +186,7 @@ impl PhotonMap {
         let mut sum = SampledSpectrum::ZERO;
         let (buckets, n) = self.grid.buckets_near(p, self.radius);
         for &b in &buckets[..n] {
-            for &i in self.grid.bucket_items(b) {
-                let photon = &self.photons[i as usize];
+            for photon in &self.photons[self.grid.bucket_range(b)] {
                 if photon.depth > max_depth || (photon.p - p).length_squared() > r2 {
                     continue;
                 }
@@ -238,9 +246,10 @@ impl PhotonMap {
         radius: f32,
         spectral_radius: f32,
     ) -> Self {
-        let grid = HashGrid::build(photons.iter().map(|p| p.p), photons.len(), 2.0 * radius);
+        let (grid, order) =
+            HashGrid::build(photons.iter().map(|p| p.p), photons.len(), 2.0 * radius);
         Self {
-            photons,
+            photons: order.iter().map(|&i| photons[i as usize]).collect(),
             grid,
             emitted,
             radius,
@@ -266,8 +275,7 @@ impl PhotonMap {
         let mut sum = SampledSpectrum::ZERO;
         let (buckets, n) = self.grid.buckets_near(p, self.radius);
         for &b in &buckets[..n] {
-            for &i in self.grid.bucket_items(b) {
-                let photon = &self.photons[i as usize];
+            for photon in &self.photons[self.grid.bucket_range(b)] {
                 if photon.depth > max_depth || (photon.p - p).length_squared() > r2 {
                     continue;
                 }
