@@ -29,7 +29,7 @@ use std::sync::{Arc, Mutex};
 
 use super::light_path::{self, Scatterer};
 use super::path::{check_split, Caustics, PathTracer};
-use super::photon_map::{Photon, PhotonMap, PHOTON_BYTES, PHOTON_ROW};
+use super::photon_map::{Photon, PhotonMap, MAP_BYTES_PER_STORED, PHOTON_ROW};
 use super::sppm::{Sppm, SppmParams};
 use super::walk::{Flow, PathContext};
 use super::{camera_ray, CommonParams, Configure, PathCounters, PixelSample};
@@ -191,7 +191,7 @@ impl PixelEstimator for PathCaustics {
     fn shared_bytes(&self, scene: &Scene) -> u64 {
         let aim = self.aim(scene);
         let stored = self.photons_per_iteration(scene) as f64 * aim.stored_per_photon;
-        (stored * (3 * PHOTON_BYTES + 40) as f64) as u64
+        (stored * MAP_BYTES_PER_STORED as f64) as u64
     }
 
     fn sample(

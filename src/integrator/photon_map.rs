@@ -21,7 +21,14 @@ const PHOTON_BATCH: u32 = 512;
 /// which no image reaches, so they never share a camera sample's numbers.
 pub(super) const PHOTON_ROW: u32 = u32::MAX;
 /// The bytes of a stored photon (for memory estimates).
-pub(super) const PHOTON_BYTES: u64 = std::mem::size_of::<Photon>() as u64;
+const PHOTON_BYTES: u64 = std::mem::size_of::<Photon>() as u64;
+/// The bytes an iteration's map takes at its peak per stored photon, an
+/// upper bound: batches grow by doubling (up to twice their photons'
+/// bytes) and are copied into one list; while that list is filed, the
+/// grid's bucket starts and a copy of them as cursors take up to 128 bytes
+/// a photon (`TABLE_PER_PHOTON`, rounded up to a power of two) and the
+/// order 4; then the map copies the list into bucket order.
+pub(super) const MAP_BYTES_PER_STORED: u64 = 3 * PHOTON_BYTES + 72;
 
 /// A photon that landed on a diffuse surface.
 #[derive(Clone, Copy, Debug)]
@@ -81,7 +88,16 @@ struct HashGrid {
     mask: usize,
     /// Bucket b holds the map's photons `starts[b]..starts[b + 1]`.
     starts: Vec<u32>,
+    /// One bit per bucket: whether it holds any. Most gathers find only
+    /// empty buckets (where the camera sees no caustic), and these bits
+    /// (a 32nd of `starts`' size, which outgrows the caches) say so
+    /// without reading `starts`.
+    occupied: Vec<u64>,
 }
+
+/// Hash-table buckets per photon: with fewer, a gather scans more photons
+/// of other cells that share its buckets.
+const TABLE_PER_PHOTON: usize = 8;
 
 impl HashGrid {
     /// The grid of `count` points, and the order to keep them in: the
@@ -91,16 +107,18 @@ impl HashGrid {
         count: usize,
         cell: f32,
     ) -> (Self, Vec<u32>) {
-        let size = (2 * count).next_power_of_two().max(1);
+        let size = (TABLE_PER_PHOTON * count).next_power_of_two().max(1);
         let mut grid = Self {
             inv_cell: 1.0 / cell,
             mask: size - 1,
             starts: vec![0; size + 1],
+            occupied: vec![0; size.div_ceil(64)],
         };
         let mut order = vec![0; count];
         for p in points.clone() {
             let b = grid.bucket(grid.cell(p));
             grid.starts[b + 1] += 1;
+            grid.occupied[b / 64] |= 1 << (b % 64);
         }
         for b in 0..size {
             grid.starts[b + 1] += grid.starts[b];
@@ -135,7 +153,8 @@ impl HashGrid {
             for y in lo.y..=hi.y.min(lo.y + 1) {
                 for x in lo.x..=hi.x.min(lo.x + 1) {
                     let b = self.bucket(IVec3::new(x, y, z));
-                    if !out[..n].contains(&b) {
+                    let holds_any = self.occupied[b / 64] & (1 << (b % 64)) != 0;
+                    if holds_any && !out[..n].contains(&b) {
                         out[n] = b;
                         n += 1;
                     }

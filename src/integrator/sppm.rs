@@ -32,7 +32,7 @@ use std::sync::{Arc, Mutex};
 
 use super::light_path::{self, Scatterer};
 use super::path::{PathTracer, Stop};
-use super::photon_map::{Photon, PhotonMap, PHOTON_BYTES, PHOTON_ROW};
+use super::photon_map::{Photon, PhotonMap, MAP_BYTES_PER_STORED, PHOTON_ROW};
 use super::walk::PathContext;
 use super::{camera_ray, PathCounters, PixelSample, Strategy};
 use super::{CommonParams, Configure};
@@ -205,12 +205,10 @@ impl Sppm {
     }
 
     /// The bytes an iteration's photon map takes at its peak, estimated
-    /// from the pilot: each stored photon is copied once from its batch
-    /// and filed in the grid (a bucket start, an index and a cursor).
+    /// from the pilot (`MAP_BYTES_PER_STORED`).
     pub fn map_bytes(&self, scene: &Scene) -> u64 {
         let stored = self.photons_per_iteration(scene) as f64 * self.stored_per_photon(scene);
-        // Batches grow by doubling: up to twice their photons' bytes.
-        (stored * (3 * PHOTON_BYTES + 40) as f64) as u64
+        (stored * MAP_BYTES_PER_STORED as f64) as u64
     }
 
     /// How many photons a photon leaves on diffuse surfaces, measured by a
