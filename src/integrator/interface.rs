@@ -3,7 +3,7 @@
 //! two media of the IOR stack, or a false intersection (inside a medium of
 //! higher priority) that the path crosses without scattering.
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
 use super::ior_stack::{Crossing, Entry, IorStack};
 use super::volume::{self, Flight};
@@ -263,7 +263,7 @@ pub fn bsdf_at(
 #[inline]
 pub fn ior_at(scene: &Scene, material: u32, wl: &SampledWavelengths) -> SampledSpectrum {
     match scene.materials[material as usize].ior() {
-        Some(ior) => Vec4::from_array(wl.lambda.to_array().map(|l| ior.eval(l))),
+        Some(ior) => ior.eval4(wl.lambda),
         None => SampledSpectrum::ONE,
     }
 }

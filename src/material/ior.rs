@@ -4,6 +4,8 @@
 // Coefficients are kept as published, beyond what f32 holds.
 #![allow(clippy::excessive_precision)]
 
+use glam::Vec4;
+
 use crate::spectrum::Spectrum;
 
 /// Fraunhofer d, F and C lines (nm), which define n_d and the Abbe number.
@@ -107,6 +109,26 @@ impl Ior {
         }
     }
 
+    /// The index at a path's four wavelengths, lane by lane as `eval`
+    /// gives it (the same operations in the same order: bit for bit), the
+    /// Sellmeier terms of all four at once.
+    pub fn eval4(&self, lambda_nm: Vec4) -> Vec4 {
+        match self {
+            Ior::Sellmeier { b, c } => {
+                let l = lambda_nm / 1000.0;
+                let l2 = l * l;
+                let mut sum = Vec4::ZERO;
+                for i in 0..4 {
+                    if b[i] != 0.0 {
+                        sum += b[i] * l2 / (l2 - c[i]);
+                    }
+                }
+                Vec4::from_array((1.0 + sum).to_array().map(|n2| n2.max(0.0).sqrt()))
+            }
+            _ => Vec4::from_array(lambda_nm.to_array().map(|l| self.eval(l))),
+        }
+    }
+
     /// Whether the index varies with wavelength (then paths disperse).
     pub fn is_dispersive(&self) -> bool {
         match self {
@@ -126,6 +148,27 @@ impl Ior {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn four_wavelengths_at_once_match_one_at_a_time_bit_for_bit() {
+        let lambdas = Vec4::new(361.5, 487.25, 589.3, 829.9);
+        let iors = [
+            Ior::preset("N-BK7").unwrap(),
+            Ior::preset("N-SF11").unwrap(),
+            Ior::Cauchy { a: 1.5, b: 0.004 },
+            Ior::Constant(1.33),
+        ];
+        for ior in iors {
+            let four = ior.eval4(lambdas).to_array();
+            for (k, l) in lambdas.to_array().into_iter().enumerate() {
+                assert_eq!(
+                    four[k].to_bits(),
+                    ior.eval(l).to_bits(),
+                    "{ior:?} at {l} nm"
+                );
+            }
+        }
+    }
 
     #[test]
     fn presets_match_their_datasheet_nd_and_abbe_numbers() {
