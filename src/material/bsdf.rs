@@ -210,6 +210,14 @@ impl Bsdf {
         }
     }
 
+    /// `wo` in the local frame, None where it grazes the surface (no
+    /// lobe can be sampled from there).
+    #[inline(always)]
+    fn sampling_wo(&self, wo: Vec3) -> Option<Vec3> {
+        let wo_l = self.local(wo);
+        (wo_l.z != 0.0).then_some(wo_l)
+    }
+
     pub fn flags(&self) -> BsdfFlags {
         self.lobe.flags()
     }
@@ -279,10 +287,7 @@ impl Bsdf {
         u: (f32, f32),
         mode: TransportMode,
     ) -> Option<BsdfSample> {
-        let wo_l = self.local(wo);
-        if wo_l.z == 0.0 {
-            return None;
-        }
+        let wo_l = self.sampling_wo(wo)?;
         let smp = self.lobe.sample(wo_l, uc, u, mode)?;
         self.in_world(wo, wo_l, smp, mode)
     }
@@ -307,10 +312,7 @@ impl Bsdf {
         let Lobe::Dielectric(lobe) = &self.lobe else {
             return None;
         };
-        let wo_l = self.local(wo);
-        if wo_l.z == 0.0 {
-            return None;
-        }
+        let wo_l = self.sampling_wo(wo)?;
         let (smp, probability) = lobe.sample_lobe(wo_l, reflect, u, mode)?;
         Some((self.in_world(wo, wo_l, smp, mode)?, probability))
     }
