@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""Variance × CPU of scene variants over several seeds, alternated.
+
+    python3 tools/seed_bench.py --reference REF.exr --spp 16 --seeds 1,2,3,4 \
+        [--resolution 200x200] [--threads 2] [--prism BIN] SCENE [SCENE ...]
+
+Renders every SCENE at --spp for each seed (`prism render --seed`), the
+scenes taking turns seed by seed so that load on a shared machine falls on
+all alike, and scores each render against REF with prism's relMSE
+(src/bench.rs: ε = 0.01, all pixels). Prints every run (relMSE, CPU
+seconds of the whole `prism render`, user + system) and per scene the mean
+relMSE, the mean CPU and their product, the figure to compare at equal CPU
+time. One seed's relMSE is one draw of a heavy-tailed error: `prism bench`
+renders one seed a rung, so its ratios swing more than the mean over seeds.
+
+Needs numpy and OpenEXR (tools/bench-requirements.txt); not part of the
+test suite.
+"""
+
+import argparse
+import resource
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+REL_MSE_EPSILON = 0.01
+
+
+def read_exr(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        ch = f.channels()
+        if "RGB" in ch:
+            return np.asarray(ch["RGB"].pixels, dtype=np.float64)
+        return np.stack([np.asarray(ch[c].pixels, dtype=np.float64) for c in "RGB"], -1)
+
+
+def render(prism, scene, spp, seed, args, out):
+    """CPU seconds of one render of `scene` into `out`."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    command = [prism, "render", str(scene), "--spp", str(spp), "--seed", str(seed),
+               "--threads", str(args.threads), "-q", "-o", str(out)]
+    if args.resolution:
+        command += ["--resolution", args.resolution]
+    subprocess.run(command, check=True, capture_output=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("scenes", nargs="+", type=Path)
+    parser.add_argument("--reference", required=True, type=Path)
+    parser.add_argument("--spp", type=int, default=16)
+    parser.add_argument("--seeds", default="1,2,3,4")
+    parser.add_argument("--resolution")
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--prism", default=str(ROOT / "target/release/prism"))
+    args = parser.parse_args()
+    reference = read_exr(args.reference)
+    seeds = [int(s) for s in args.seeds.split(",")]
+    runs = {scene: [] for scene in args.scenes}
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in seeds:
+            for k, scene in enumerate(args.scenes):
+                out = Path(tmp) / f"{k}.exr"
+                cpu = render(args.prism, scene, args.spp, seed, args, out)
+                image = read_exr(out)
+                if image.shape != reference.shape:
+                    raise SystemExit(f"{scene}: image {image.shape} against reference {reference.shape}")
+                error = float(((image - reference) ** 2 / (reference**2 + REL_MSE_EPSILON)).mean())
+                runs[scene].append((error, cpu))
+                print(f"{scene} seed {seed}: relMSE {error:.4e}, {cpu:.2f} CPU-s", flush=True)
+    for scene, scores in runs.items():
+        error, cpu = np.mean(np.array(scores), axis=0)
+        print(f"{scene}: mean relMSE {error:.4e} × {cpu:.2f} CPU-s = {error * cpu:.4f}")
+
+
+if __name__ == "__main__":
+    main()
