@@ -25,18 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from caustics_bench import read_exr, rel_mse
+
 ROOT = Path(__file__).resolve().parent.parent
-REL_MSE_EPSILON = 0.01
-
-
-def read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path)) as f:
-        ch = f.channels()
-        if "RGB" in ch:
-            return np.asarray(ch["RGB"].pixels, dtype=np.float64)
-        return np.stack([np.asarray(ch[c].pixels, dtype=np.float64) for c in "RGB"], -1)
 
 
 def render(prism, scene, spp, seed, args, out):
@@ -72,7 +63,7 @@ def main():
                 image = read_exr(out)
                 if image.shape != reference.shape:
                     raise SystemExit(f"{scene}: image {image.shape} against reference {reference.shape}")
-                error = float(((image - reference) ** 2 / (reference**2 + REL_MSE_EPSILON)).mean())
+                error = rel_mse(image, reference, np.ones(reference.shape[:2], dtype=bool))
                 runs[scene].append((error, cpu))
                 print(f"{scene} seed {seed}: relMSE {error:.4e}, {cpu:.2f} CPU-s", flush=True)
     for scene, scores in runs.items():
