@@ -13,7 +13,9 @@
    variant, which JIT-compiles its kernels: a first render (not part of the
    ladder) compiles them, and its time is reported apart. The LLVM variant
    needs libLLVM (Debian 12: `apt-get install libllvm19`; this script sets
-   DRJIT_LIBLLVM_PATH to it when that file exists).
+   DRJIT_LIBLLVM_PATH to it when that file exists). `--llvm-width 8` has
+   its kernels compiled 8 lanes wide (AVX2) where the CPU offers 16
+   (AVX-512): what its vectors, not its algorithms, are worth.
 3. Both renderers' rungs are scored against the same reference: relMSE
    (as prism computes it) and HDR-FLIP (flip-evaluator).
 4. Writes OUT/convergence.csv and OUT/convergence.png (log-log error against
@@ -124,7 +126,7 @@ class Target:
 class Mitsuba:
     """A target's scene in Mitsuba 3, in one variant."""
 
-    def __init__(self, threads, variant="scalar_spectral", build=cornell_dict):
+    def __init__(self, threads, variant="scalar_spectral", build=cornell_dict, llvm_width=None):
         if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(LIBLLVM):
             os.environ["DRJIT_LIBLLVM_PATH"] = LIBLLVM
         import drjit as dr
@@ -135,6 +137,9 @@ class Mitsuba:
         self.mi = mi
         self.variant = variant
         self.name = f"mitsuba3-{variant}"
+        if llvm_width and variant.startswith("llvm"):
+            set_llvm_vector_width(dr, llvm_width)
+            self.name += f"-{llvm_width}wide"
         scene = build(mi)
         t0 = time.perf_counter()
         self.scene = mi.load_dict(scene)
@@ -147,6 +152,31 @@ class Mitsuba:
         c0, w0 = cpu_seconds(), time.perf_counter()
         image = np.array(self.mi.render(self.scene, spp=spp, seed=seed))
         return image, time.perf_counter() - w0, cpu_seconds() - c0
+
+
+def set_llvm_vector_width(dr, width):
+    """Has Dr.Jit's LLVM backend compile kernels `width` lanes wide: 8 as
+    AVX2 (Haswell's features), 16 as the host CPU has them (AVX-512 where
+    present). Dr.Jit's Python module does not expose this, so it goes
+    through the C++ symbol of libdrjit-core (`jit_llvm_set_target`); it
+    must come before the first kernel is compiled, once per process."""
+    import ctypes
+
+    core = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+    set_target = core._Z19jit_llvm_set_targetPKcS0_j
+    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint]
+    cpu = core._Z19jit_llvm_target_cpuv
+    cpu.restype = ctypes.c_char_p
+    features = core._Z24jit_llvm_target_featuresv
+    features.restype = ctypes.c_char_p
+    width_now = core._Z21jit_llvm_vector_widthv
+    width_now.restype = ctypes.c_uint
+    if width == 8:
+        set_target(b"haswell", b"+avx,+avx2,+fma,+f16c,+sse4.2", 8)
+    elif width != width_now():
+        set_target(cpu(), features(), width)
+    if width_now() != width:
+        raise SystemExit(f"Dr.Jit's LLVM backend refused {width} lanes (it has {width_now()})")
 
 
 PRISM = None  # set by --prism
@@ -269,6 +299,8 @@ def main():
     ap.add_argument("--no-mitsuba", action="store_true")
     ap.add_argument("--variants", default="scalar_spectral",
                     help="Mitsuba variants, comma-separated (scalar_spectral, llvm_ad_spectral)")
+    ap.add_argument("--llvm-width", type=int, choices=[4, 8, 16],
+                    help="lanes of Mitsuba's LLVM kernels (default: the widest the CPU has; 8 = AVX2)")
     ap.add_argument("--prism", help="the prism binary (default: target/release/prism, built if missing)")
     ap.add_argument("--split", type=int, help="prism's path splitting (integrator.split) for the ladder")
     ap.add_argument("--uniform", action="store_true",
@@ -291,7 +323,9 @@ def main():
     size = f"{target.width}x{target.height}"
     reference_path = sorted(out.glob(f"reference-*-{size}-{args.reference_spp}spp.exr"), key=os.path.getmtime)[-1]
     reference = read_exr(reference_path)
-    peers = [] if args.no_mitsuba else [Mitsuba(args.threads, v, target.build) for v in args.variants.split(",")]
+    peers = [] if args.no_mitsuba else [
+        Mitsuba(args.threads, v, target.build, args.llvm_width) for v in args.variants.split(",")
+    ]
     for mit in peers:
         print(f"{mit.name}: scene loaded in {mit.load_s:.3f} s", flush=True)
         if mit.variant.startswith(("llvm", "cuda")):
