@@ -129,3 +129,57 @@ fn path_caustics_is_the_same_for_any_thread_count() {
         }
     }
 }
+
+/// The default photon count follows what the pilots measure: photon paths
+/// get at least an eighth of the camera samples' rays, and more where
+/// photons carry the image. The mirror's caustic of a point light, which
+/// only photons find, owes them more of its camera samples' mean square
+/// than caustics on a floor lit mostly by a panel and a sky, and gets the
+/// larger share of rays. The pilots take fixed streams: a second
+/// integrator measures the same.
+#[test]
+fn default_photon_count_follows_what_photons_cost_and_carry() {
+    use prism::integrator::{Integrator, PhotonBudget};
+    let size = "resolution = [640, 480]";
+    let floor = common::scene(&format!(
+        "{}\n[integrator]\ntype = \"path_caustics\"\n",
+        SPHERES.replace("resolution = [32, 24]", size)
+    ));
+    let mirror_text =
+        caustic::text("path_caustics", "", false, 2).replace("resolution = [32, 24]", size);
+    let mirror = common::scene(&mirror_text);
+    let budget = |s: &prism::load::Loaded| -> PhotonBudget {
+        match &s.settings.integrator {
+            Integrator::PathCaustics(p) => p.photon_budget(&s.scene),
+            other => panic!("path_caustics, not {}", other.name()),
+        }
+    };
+    // Photon rays against camera rays, over the whole image.
+    let share = |b: &PhotonBudget| {
+        b.per_iteration as f64 * b.rays_per_photon / (640.0 * 480.0 * b.rays_per_camera_sample)
+    };
+    let (on_floor, in_mirror) = (budget(&floor), budget(&mirror));
+    eprintln!(
+        "floor {on_floor:?} {:.3}; mirror {in_mirror:?} {:.3}",
+        share(&on_floor),
+        share(&in_mirror)
+    );
+    for b in [&on_floor, &in_mirror] {
+        assert!(
+            b.rays_per_photon > 0.0 && b.rays_per_camera_sample > 0.0,
+            "{b:?}"
+        );
+        assert!(share(b) > 0.124, "photons get at least an eighth: {b:?}");
+    }
+    assert!(
+        in_mirror.photon_moment_share > 2.0 * on_floor.photon_moment_share,
+        "the mirror's caustic owes photons more: {in_mirror:?} against {on_floor:?}"
+    );
+    assert!(share(&in_mirror) > 1.5 * share(&on_floor));
+    let again = budget(&common::scene(&mirror_text));
+    assert_eq!(again.per_iteration, in_mirror.per_iteration);
+    assert_eq!(
+        again.photon_moment_share.to_bits(),
+        in_mirror.photon_moment_share.to_bits()
+    );
+}

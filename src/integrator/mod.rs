@@ -26,7 +26,7 @@ pub use bdpt::Bdpt;
 pub use interface::flight_end;
 pub use light_tracer::LightTracer;
 pub use path::PathTracer;
-pub use path_caustics::PathCaustics;
+pub use path_caustics::{PathCaustics, PhotonBudget};
 pub use photon_map::PhotonMap;
 pub use sppm::Sppm;
 

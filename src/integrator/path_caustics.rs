@@ -73,6 +73,23 @@ struct Aim {
     lights: LightSet,
     /// Photons stored per photon emitted, from a pilot.
     stored_per_photon: f64,
+    /// Rays traced per photon emitted, and per camera sample, from pilots:
+    /// what each costs, for the default photon count.
+    rays_per_photon: f64,
+    rays_per_camera_sample: f64,
+    /// The share of the camera samples' second moment (mean square of
+    /// their light) that photons bring, from the pilots.
+    photon_moment_share: f64,
+}
+
+/// The default photon count of `path_caustics` and the pilots' measures
+/// it follows (`PathCaustics::photon_budget`).
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonBudget {
+    pub per_iteration: u32,
+    pub rays_per_photon: f64,
+    pub rays_per_camera_sample: f64,
+    pub photon_moment_share: f64,
 }
 
 /// Its own keys of `[integrator]`: photon mapping's, for the caustic
@@ -245,6 +262,11 @@ fn iteration_u(seed: u64, index: u32) -> f32 {
 /// The pilot photons that measure how many a photon stores.
 const PILOT: u32 = 1 << 14;
 const PILOT_SEED: u64 = 0xca05_0000;
+/// Camera samples of the pilot that measures what one costs.
+const CAMERA_PILOT: u32 = 1 << 12;
+/// The default photon count's rays against the camera samples' rays, at
+/// least (`PathCaustics::photon_budget`).
+const MIN_PHOTON_SHARE: f64 = 0.125;
 
 impl PathCaustics {
     /// Where the scene's photons are aimed (computed once per scene).
@@ -276,31 +298,111 @@ impl PathCaustics {
             sphere,
             lights,
             stored_per_photon: 0.0,
+            rays_per_photon: 0.0,
+            rays_per_camera_sample: 0.0,
+            photon_moment_share: 0.0,
         };
         if sphere.is_some() {
             let (mut stored, mut counters) = (Vec::new(), PathCounters::default());
+            let wl = scene.wavelengths.sample(0.5);
             for j in 0..PILOT {
                 let mut sampler = Sampler::for_sample(PILOT_SEED, j, PHOTON_ROW, 0);
-                let wl = scene.wavelengths.sample(0.5);
                 self.trace_photon(scene, &aim, wl, &mut sampler, &mut stored, &mut counters);
-                stored.clear();
             }
             aim.stored_per_photon = counters.photons_stored as f64 / PILOT as f64;
+            aim.rays_per_photon = counters.rays as f64 / PILOT as f64;
+            let radius = self.initial_radius(scene, &aim);
+            let map = PhotonMap::new(stored, PILOT as u64, radius, 0.0);
+            (aim.rays_per_camera_sample, aim.photon_moment_share) =
+                self.camera_pilot(scene, map, wl);
         }
         let aim = Arc::new(aim);
         *cached = Some((scene.id(), aim.clone()));
         aim
     }
 
-    /// Photons per iteration: the given number, or one per pixel within
-    /// [2¹⁴, 2²²]. On the sunset at 320 × 180, 16 samples, one per pixel
-    /// cost 30% more time than a quarter and four per pixel twice as much;
-    /// see docs/integrators.md for the error each buys.
+    /// What camera samples cost and what the photons give them: the rays
+    /// a sample traces, and the share of the mean square of its light that
+    /// the photons of `map` (the pilot's) bring, over `CAMERA_PILOT`
+    /// samples spread evenly over the image. Each sample is taken twice on
+    /// the same stream, with the map and with none (the photons only add
+    /// light; the paths are the same).
+    fn camera_pilot(&self, scene: &Scene, map: PhotonMap, wl: SampledWavelengths) -> (f64, f64) {
+        let (w, h) = scene.camera.resolution();
+        let max_depth = self.max_depth;
+        let with = CausticMap { map, max_depth, wl };
+        let without = CausticMap {
+            map: PhotonMap::default(),
+            max_depth,
+            wl,
+        };
+        let (mut counters, mut ignored) = (PathCounters::default(), PathCounters::default());
+        let (mut all, mut photons) = (0.0f64, 0.0f64);
+        let side = (CAMERA_PILOT as f64).sqrt() as u32;
+        for j in 0..side * side {
+            let x = ((j % side) as u64 * w as u64 / side as u64) as u32;
+            let y = ((j / side) as u64 * h as u64 / side as u64) as u32;
+            let sample = |map: &CausticMap, counters: &mut PathCounters| {
+                let mut sampler = Sampler::for_sample(PILOT_SEED, x, y, 0);
+                let s = self.sample(scene, (x, y), &mut sampler, map, counters);
+                s.l.to_array()
+                    .iter()
+                    .map(|&v| v as f64)
+                    .filter(|v| v.is_finite())
+                    .sum::<f64>()
+            };
+            let (l_with, l_without) =
+                (sample(&with, &mut ignored), sample(&without, &mut counters));
+            all += l_with * l_with;
+            photons += (l_with - l_without) * (l_with - l_without);
+        }
+        let share = if all > 0.0 {
+            (photons / all).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (counters.rays as f64 / (side * side) as f64, share)
+    }
+
+    /// Photons per iteration: the given number, or the default of
+    /// `photon_budget`.
     fn photons_per_iteration(&self, scene: &Scene) -> u32 {
-        self.photons.photons.unwrap_or_else(|| {
-            let (w, h) = scene.camera.resolution();
-            ((w as u64) * (h as u64)).clamp(1 << 14, 1 << 22) as u32
-        })
+        self.photons
+            .photons
+            .unwrap_or_else(|| self.photon_budget(scene).per_iteration)
+    }
+
+    /// The default photon count and what the pilots measured for it.
+    /// Photon paths and camera paths share an iteration's time; the
+    /// variance × time of the sum of two estimators is least where the
+    /// time spent on each goes as the square root of its variance. So the
+    /// photons get √(m / (1 − m)) of the camera samples' rays (m: the
+    /// share of the camera samples' mean square that the pilot's photons
+    /// bring), at least an eighth and at most as many, within [2¹⁴, 2²²]
+    /// photons an iteration: about 1.4 a pixel on the glass of water,
+    /// whose camera paths wind through the glass, 0.7 on the rainbow,
+    /// whose spectrum photons make, 0.14-0.27 on the sunset and
+    /// gem-studio, whose photons are dear beside their camera paths.
+    /// Against one a pixel, variance × CPU 1.25-1.4× lower on those two,
+    /// the same on the others (docs/integrators.md).
+    pub fn photon_budget(&self, scene: &Scene) -> PhotonBudget {
+        let aim = self.aim(scene);
+        let m = aim.photon_moment_share.min(0.99);
+        let share = (m / (1.0 - m)).sqrt().clamp(MIN_PHOTON_SHARE, 1.0);
+        let (w, h) = scene.camera.resolution();
+        let per_pixel = if aim.rays_per_photon > 0.0 {
+            share * aim.rays_per_camera_sample / aim.rays_per_photon
+        } else {
+            1.0
+        };
+        let per_iteration = ((w as f64) * (h as f64) * per_pixel)
+            .clamp((1u32 << 14) as f64, (1u32 << 22) as f64) as u32;
+        PhotonBudget {
+            per_iteration,
+            rays_per_photon: aim.rays_per_photon,
+            rays_per_camera_sample: aim.rays_per_camera_sample,
+            photon_moment_share: aim.photon_moment_share,
+        }
     }
 
     /// What the log says of the photons: how many, aimed where, and the
@@ -310,10 +412,15 @@ impl PathCaustics {
         match aim.sphere {
             Some(s) => format!(
                 "caustic photons: {} per iteration, aimed at a sphere of radius {:.4} around the \
-                 glass and metal ({:.3} stored per photon), radius {:.4} (scene units) in the first",
+                 glass and metal ({:.3} stored per photon; {:.2} rays per photon against {:.2} per \
+                 camera sample, which owes {:.3} of its mean square to photons), radius {:.4} \
+                 (scene units) in the first",
                 self.photons_per_iteration(scene),
                 s.radius,
                 aim.stored_per_photon,
+                aim.rays_per_photon,
+                aim.rays_per_camera_sample,
+                aim.photon_moment_share,
                 self.initial_radius(scene, &aim)
             ),
             None => "caustic photons: none (no glass or metal in the scene)".to_string(),

@@ -36,12 +36,17 @@ pub fn conductor_reflectance(cos: f64, eta: f64, k: f64) -> f64 {
 
 /// The scene for integrator `kind` (with `extra` integrator keys).
 pub fn scene(kind: &str, extra: &str, vertical_mirror: bool, max_depth: u32) -> Loaded {
+    super::scene(&text(kind, extra, vertical_mirror, max_depth))
+}
+
+/// `scene`'s file, 32 × 24 pixels.
+pub fn text(kind: &str, extra: &str, vertical_mirror: bool, max_depth: u32) -> String {
     let vertical = if vertical_mirror {
         "[[shape]]\ntype = \"quad\"\nvertices = [[-8, 0, 2], [-8, 1.9, 2], [8, 1.9, 2], [8, 0, 2]]\nmaterial = \"mirror\"\n"
     } else {
         ""
     };
-    super::scene(&format!(
+    format!(
         "[camera]\nposition = [0, 1.8, -3]\nlook_at = [0, 0, 1]\nfov = 30\n\
          [film]\nresolution = [32, 24]\n\
          [integrator]\ntype = \"{kind}\"\nmax_depth = {max_depth}\n{extra}\n\
@@ -51,7 +56,7 @@ pub fn scene(kind: &str, extra: &str, vertical_mirror: bool, max_depth: u32) -> 
          [[shape]]\ntype = \"quad\"\nvertices = [[-8, 2, -8], [8, 2, -8], [8, 2, 8], [-8, 2, 8]]\nmaterial = \"mirror\"\n\
          {vertical}\
          [[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = {INTENSITY}\n"
-    ))
+    )
 }
 
 /// Irradiance on the floor at `p` (y = 0).
