@@ -97,7 +97,7 @@ pub struct PhotonBudget {
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CausticParams {
-    /// Photons per iteration (default: one per pixel).
+    /// Photons per iteration (default: from pilots, `PathCaustics::photon_budget`).
     pub photons: Option<u32>,
     /// The first iteration's radius (default: four pixels' width at the
     /// glass and metal).
