@@ -8,7 +8,9 @@ Renders every SCENE at --spp for each seed (`prism render --seed`), the
 scenes taking turns seed by seed so that load on a shared machine falls on
 all alike, and scores each render against REF with prism's relMSE
 (src/bench.rs: ε = 0.01, all pixels). Prints every run (relMSE, CPU
-seconds of the whole `prism render`, user + system) and per scene the mean
+seconds of the whole `prism render`, user + system; it writes no spectral
+EXR, whose writing would add the same time to every scene and pull their
+ratios towards 1: before 2026-12-04 it did) and per scene the mean
 relMSE, the mean CPU and their product, the figure to compare at equal CPU
 time. One seed's relMSE is one draw of a heavy-tailed error: `prism bench`
 renders one seed a rung, so its ratios swing more than the mean over seeds.
@@ -34,7 +36,7 @@ def render(prism, scene, spp, seed, args, out):
     """CPU seconds of one render of `scene` into `out`."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     command = [prism, "render", str(scene), "--spp", str(spp), "--seed", str(seed),
-               "--threads", str(args.threads), "-q", "-o", str(out)]
+               "--threads", str(args.threads), "--no-spectral", "-q", "-o", str(out)]
     if args.resolution:
         command += ["--resolution", args.resolution]
     subprocess.run(command, check=True, capture_output=True)
