@@ -16,24 +16,22 @@
 set -euo pipefail
 py=3.12
 while getopts "p:" opt; do
-    case $opt in p) py=$OPTARG ;; *) sed -n '2,14p' "$0"; exit 2 ;; esac
+    case $opt in p) py=$OPTARG ;; *) sed -n '2,15p' "$0"; exit 2 ;; esac
 done
 shift $((OPTIND - 1))
-[ $# -eq 1 ] || { sed -n '2,14p' "$0"; exit 2; }
+[ $# -eq 1 ] || { sed -n '2,15p' "$0"; exit 2; }
 out=$(realpath -m "$1")
 llvm=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
 [ -f "$llvm" ] || { echo "needs $llvm (apt-get install libllvm19)" >&2; exit 1; }
 mkdir -p "$out"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-tag=cp${py/./}
+# The versions tools/bench-requirements.txt pins.
+mapfile -t pins < <(grep -E '^(mitsuba|drjit|OpenEXR|flip-evaluator)==' \
+    "$(dirname "$0")/bench-requirements.txt")
 python3 -m pip download -q --no-deps --only-binary=:all: --python-version "$py" \
     --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
-    --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 -d "$work/wheels" \
-    "$(grep '^mitsuba==' "$(dirname "$0")/bench-requirements.txt")" \
-    "$(grep '^drjit==' "$(dirname "$0")/bench-requirements.txt")" \
-    "$(grep '^OpenEXR==' "$(dirname "$0")/bench-requirements.txt")" \
-    "$(grep '^flip-evaluator==' "$(dirname "$0")/bench-requirements.txt")"
+    --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 -d "$work/wheels" "${pins[@]}"
 cp "$work"/wheels/openexr-*.whl "$work"/wheels/flip_evaluator-*.whl "$out/"
 
 # Mitsuba: the LLVM spectral variant and the plugins of tools/peer_scenes.py.
@@ -55,11 +53,14 @@ tar -cf - . | xz -T0 -9 >"$out/site.tar.xz"
 # libLLVM and the libraries it links that a bare machine may lack.
 mkdir "$work/lib"
 cd "$work/lib"
+# libLLVM's undefined symbols matching $1, as "(VERSION) name" lines.
 undefined() { objdump -T "$llvm" | awk -v p="$1" '/\*UND\*/ && $NF ~ p { print $(NF-1), $NF }' | sort -u; }
-undefined '^Z3_' | awk '{ print "void " $2 "(void) { __builtin_trap(); }" }' >z3.c
+# A C function that traps for each such line: never called, only bound.
+stubs() { awk '{ print "void " $2 "(void) { __builtin_trap(); }" }' "$@"; }
+undefined '^Z3_' | stubs >z3.c
 gcc -shared -fPIC -o libz3.so.4 -Wl,-soname,libz3.so.4 z3.c
 undefined '^xml' >xml.txt
-awk '{ print "void " $2 "(void) { __builtin_trap(); }" }' xml.txt >xml.c
+stubs xml.txt >xml.c
 {   # libLLVM asks for libxml2's symbol versions: the stub must define them.
     echo "LIBXML2_2.4.30 {"; awk '$1 == "(LIBXML2_2.4.30)" { print "  " $2 ";" }' xml.txt; echo "};"
     echo "LIBXML2_2.6.0 {"; awk '$1 == "(LIBXML2_2.6.0)" { print "  " $2 ";" }' xml.txt; echo "} LIBXML2_2.4.30;"
