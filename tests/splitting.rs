@@ -178,3 +178,76 @@ fn glass_followed_along_both_lobes_agrees_with_one_drawn() {
         }
     }
 }
+
+/// `text` rendered by integrator `kind`, smooth glass past the first
+/// surface looked ahead at along both lobes (`look_ahead`) or not.
+fn look_ahead(text: &str, kind: &str, look_ahead: bool) -> Loaded {
+    common::scene(&format!(
+        "{text}\n[integrator]\ntype = \"{kind}\"\nlook_ahead = {look_ahead}\n"
+    ))
+}
+
+/// A smooth glass ball filling the view under a wide lamp, before a floor
+/// and a wall: its facets show the lamp, each seen along one lobe.
+const GLASS_BALL_UNDER_A_LAMP: &str = r#"
+[camera]
+position = [0, 1.5, -4]
+look_at = [0, 1.1, 0]
+fov = 40
+[film]
+resolution = [32, 24]
+spp = 16
+[materials.floor]
+type = "diffuse"
+reflectance = 0.6
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+[[shape]]
+type = "quad"
+vertices = [[-4, 0, -4], [-4, 0, 4], [4, 0, 4], [4, 0, -4]]
+material = "floor"
+[[shape]]
+type = "quad"
+vertices = [[-4, 0, 3], [-4, 4, 3], [4, 4, 3], [4, 0, 3]]
+material = "floor"
+[[shape]]
+type = "quad"
+vertices = [[-2, 3.5, -2], [2, 3.5, -2], [2, 3.5, 2], [-2, 3.5, 2]]
+emission = 4
+[[shape]]
+type = "sphere"
+center = [0, 1.1, 0]
+radius = 1.1
+material = "glass"
+"#;
+
+#[test]
+fn glass_looked_ahead_at_agrees_with_one_lobe_drawn() {
+    // Smooth glass under a lamp and a sky (lobes that escape count the
+    // sky, lobes that meet the lamp its emission), dispersive glass, and
+    // glass inside glass (lobes inside an object are not traced ahead),
+    // for the path tracer and with caustics from photons.
+    let sky = "[environment]\nradiance = 0.4\n";
+    let smooth = GLASS_BALL_UNDER_A_LAMP;
+    let dispersive = smooth.replace("ior = 1.5", "ior = \"N-SF11\"");
+    let nested = format!(
+        "{smooth}[materials.core]\ntype = \"dielectric\"\nior = 1.9\npriority = 2\n\
+         [[shape]]\ntype = \"sphere\"\ncenter = [0.3, 1.2, 0]\nradius = 0.5\nmaterial = \"core\"\n"
+    );
+    assert!(dispersive.contains("N-SF11"));
+    for (text, glass) in [
+        (format!("{smooth}{sky}"), "smooth"),
+        (format!("{dispersive}{sky}"), "dispersive"),
+        (nested, "nested"),
+    ] {
+        for kind in ["path", "path_caustics"] {
+            let what = format!("{kind}, {glass} glass, looked ahead at or not");
+            assert_scenes_agree(
+                &look_ahead(&text, kind, false),
+                &look_ahead(&text, kind, true),
+                &what,
+            );
+        }
+    }
+}

@@ -7,7 +7,6 @@ use super::interface::{stack_towards, transmittance};
 use super::ior_stack::{Entry, IorStack};
 use super::walk::{self, Dispersion, Event, Flow, PathContext, Scatterer, Visitor, Walk};
 use super::{power_heuristic, PathCounters, Strategy};
-use super::{CommonParams, Configure, MAX_SPLIT};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightPoint;
@@ -16,9 +15,12 @@ use crate::material::{Bsdf, BsdfFlags, TransportMode};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
-use serde::Deserialize;
 
 mod branches;
+mod look_ahead;
+mod params;
+
+pub(super) use params::check_split;
 
 /// A surface a camera path reached, offered to `radiance_until`'s `stop`.
 pub struct Stop<'a, 'c> {
@@ -71,6 +73,11 @@ pub struct PathTracer {
     /// transmits), follow both lobes, each weighted by the probability of
     /// choosing it (`Gather::lobe_branches`).
     pub split_glass: bool,
+    /// At smooth glass past the first surface of a path through mirrors
+    /// and smooth glass alone, trace ahead the lobes that leave every
+    /// object: the light each meets first is counted exactly, and the path
+    /// goes on along one lobe (`Gather::look_ahead`).
+    pub look_ahead: bool,
 }
 
 impl Default for PathTracer {
@@ -82,52 +89,8 @@ impl Default for PathTracer {
             split: 1,
             split_dispersion: true,
             split_glass: true,
+            look_ahead: false,
         }
-    }
-}
-
-/// The path tracer's own keys of `[integrator]`.
-#[derive(Clone, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PathParams {
-    /// How direct light is found: "mis" (default), "nee" or "bsdf".
-    pub strategy: Option<Strategy>,
-    /// Continuations per camera sample from its first surface that is not
-    /// a Dirac one (default 1: no splitting).
-    pub split: Option<u32>,
-    /// Follow each wavelength on its own past the first smooth dispersive
-    /// interface (default true).
-    pub split_dispersion: Option<bool>,
-    /// Follow both the reflection and the transmission of glass met first
-    /// (default true).
-    pub split_glass: Option<bool>,
-}
-
-impl Configure for PathTracer {
-    type Params = PathParams;
-
-    fn configure(common: &CommonParams, own: PathParams) -> Result<Self, String> {
-        let d = PathTracer::default();
-        let split = check_split(own.split.unwrap_or(d.split))?;
-        Ok(PathTracer {
-            max_depth: common.max_depth.unwrap_or(d.max_depth),
-            rr_depth: common.rr_depth.unwrap_or(d.rr_depth),
-            strategy: own.strategy.unwrap_or(d.strategy),
-            split,
-            split_dispersion: own.split_dispersion.unwrap_or(d.split_dispersion),
-            split_glass: own.split_glass.unwrap_or(d.split_glass),
-        })
-    }
-}
-
-/// `integrator.split`, refused outside 1..=`MAX_SPLIT`.
-pub(super) fn check_split(split: u32) -> Result<u32, String> {
-    if (1..=MAX_SPLIT).contains(&split) {
-        Ok(split)
-    } else {
-        Err(format!(
-            "`integrator.split` must be between 1 and {MAX_SPLIT}, not {split}"
-        ))
     }
 }
 
@@ -383,6 +346,12 @@ pub(super) struct Gather<'t, 's> {
     pub(super) defers_shadows: bool,
     pub(super) shadow: Option<Ray>,
     pub(super) unblocked: SampledSpectrum,
+    /// Every surface met so far is a Dirac one (mirrors, smooth glass):
+    /// what the path finds is seen as in a mirror, and looking ahead pays.
+    dirac_only: bool,
+    /// The emission of the surface the path arrives at next was counted
+    /// when the path looked ahead to it (`look_ahead`).
+    counted_emission: bool,
 }
 
 impl<'t, 's> Gather<'t, 's> {
@@ -406,6 +375,8 @@ impl<'t, 's> Gather<'t, 's> {
             defers_shadows: false,
             shadow: None,
             unblocked: SampledSpectrum::ZERO,
+            dirac_only: true,
+            counted_emission: false,
         }
     }
 
@@ -446,24 +417,34 @@ impl<'t, 's> Gather<'t, 's> {
     }
 }
 
+impl Gather<'_, '_> {
+    /// Adds the emission of `hit`, which `walk.ray` reached, as BSDF
+    /// sampling found it (none where the path is in a caustic).
+    fn add_emission(&mut self, ctx: &mut PathContext, walk: &Walk, hit: &SurfaceHit) {
+        let Some(i) = hit.light.filter(|_| !self.in_caustic) else {
+            return;
+        };
+        let light = ctx.scene.lights.get(i);
+        let le = light.l(hit.uv, -walk.ray.dir, ctx.wl);
+        if le != SampledSpectrum::ZERO {
+            let tracer = self.tracer;
+            let weight = tracer.emission_weight(self.specular, self.prev_bsdf_pdf, || {
+                let pdf = light.pdf_li(walk.ray.origin, walk.ray.dir, Some(hit.p));
+                ctx.scene.lights.pmf(i) * pdf
+            });
+            self.l += walk.flight.weight(ctx.wl) * le * weight;
+        }
+    }
+}
+
 impl Visitor for Gather<'_, '_> {
     fn mode(&self) -> TransportMode {
         TransportMode::Radiance
     }
 
     fn arrive(&mut self, ctx: &mut PathContext, walk: &Walk, hit: Option<&SurfaceHit>) -> Flow {
-        let seen = hit.filter(|_| !self.in_caustic);
-        if let Some((hit, i)) = seen.and_then(|h| h.light.map(|i| (h, i))) {
-            let light = ctx.scene.lights.get(i);
-            let le = light.l(hit.uv, -walk.ray.dir, ctx.wl);
-            if le != SampledSpectrum::ZERO {
-                let tracer = self.tracer;
-                let weight = tracer.emission_weight(self.specular, self.prev_bsdf_pdf, || {
-                    let pdf = light.pdf_li(walk.ray.origin, walk.ray.dir, Some(hit.p));
-                    ctx.scene.lights.pmf(i) * pdf
-                });
-                self.l += walk.flight.weight(ctx.wl) * le * weight;
-            }
+        if let Some(hit) = hit.filter(|_| !std::mem::take(&mut self.counted_emission)) {
+            self.add_emission(ctx, walk, hit);
         }
         if walk.depth == self.tracer.max_depth {
             Flow::End
@@ -477,6 +458,7 @@ impl Visitor for Gather<'_, '_> {
         match event.at {
             Scatterer::Medium { .. } => {
                 (self.met_diffuse, self.in_caustic) = (false, false);
+                self.dirac_only = false;
                 self.splits_glass = false;
                 self.l += tracer.direct(ctx, walk, event, None);
                 Flow::Go
@@ -498,6 +480,9 @@ impl Visitor for Gather<'_, '_> {
                     }
                 }
                 self.caustics_at(ctx, walk, hit, event.wo, bsdf);
+                if self.dirac_only {
+                    self.dirac_only = bsdf.is_specular();
+                }
                 let by_lobe = std::mem::take(&mut self.splits_glass) && bsdf.has_two_lobes();
                 let by_split = self.split > 1 && !bsdf.is_specular();
                 if self.in_caustic {
@@ -543,6 +528,17 @@ impl Visitor for Gather<'_, '_> {
 
     fn splits_dispersion(&self) -> bool {
         self.disperses
+    }
+
+    fn takes_bounce(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> bool {
+        let Scatterer::Surface { bsdf, .. } = event.at else {
+            return false;
+        };
+        let looks = self.looks_ahead(ctx, bsdf);
+        if looks {
+            self.look_ahead(ctx, walk, event);
+        }
+        looks
     }
 
     fn disperse(&mut self, ctx: &mut PathContext, walk: &Walk, at: &Dispersion) {

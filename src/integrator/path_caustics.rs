@@ -54,6 +54,9 @@ pub struct PathCaustics {
     pub split: u32,
     /// Follow both lobes of glass met first (`PathTracer::split_glass`).
     pub split_glass: bool,
+    /// Trace ahead the lobes of smooth glass that leave every object
+    /// (`PathTracer::look_ahead`).
+    pub look_ahead: bool,
     /// The photon side: its counts, radii and kernels.
     photons: Sppm,
     /// Per scene (keyed by `Scene::id`): where photons are aimed.
@@ -110,6 +113,8 @@ pub struct CausticParams {
     pub split: Option<u32>,
     /// As the path tracer's (default true).
     pub split_glass: Option<bool>,
+    /// As the path tracer's (default false).
+    pub look_ahead: Option<bool>,
 }
 
 impl Configure for PathCaustics {
@@ -123,6 +128,7 @@ impl Configure for PathCaustics {
         let split_glass = spec
             .split_glass
             .unwrap_or(PathTracer::default().split_glass);
+        let look_ahead = spec.look_ahead.unwrap_or(PathTracer::default().look_ahead);
         let spec = SppmParams {
             photons: spec.photons,
             radius: spec.radius,
@@ -136,6 +142,7 @@ impl Configure for PathCaustics {
             split_dispersion,
             split,
             split_glass,
+            look_ahead,
             photons,
             aim: Arc::default(),
         })
@@ -155,6 +162,7 @@ impl PartialEq for PathCaustics {
             && self.split_dispersion == other.split_dispersion
             && self.split == other.split
             && self.split_glass == other.split_glass
+            && self.look_ahead == other.look_ahead
     }
 }
 
@@ -232,6 +240,7 @@ impl PixelEstimator for PathCaustics {
             split_dispersion: self.split_dispersion,
             split: self.split,
             split_glass: self.split_glass,
+            look_ahead: self.look_ahead,
             ..PathTracer::default()
         };
         let mut ctx = PathContext {

@@ -332,6 +332,7 @@ impl Sppm {
             // `stop` ends the path at its visible point: no branches.
             split_dispersion: false,
             split_glass: false,
+            look_ahead: false,
         };
         // At the visible point the path ends: light sampling alone finds
         // the direct light (no BSDF sample follows to share it with).

@@ -121,6 +121,14 @@ pub trait Visitor {
     /// counts it): gather, record, connect; end the walk if it is done.
     fn scatter_from(&mut self, ctx: &mut PathContext, walk: &Walk, event: &Event) -> Flow;
 
+    /// At a surface, after `scatter_from`, where the walk would draw one
+    /// BSDF sample: the visitor may take the bounce itself and walk the
+    /// path on to its end (true). Not asked where a caller follows one
+    /// lobe (`Dispersion`) or a branch.
+    fn takes_bounce(&mut self, _ctx: &mut PathContext, _walk: &Walk, _event: &Event) -> bool {
+        false
+    }
+
     /// The numbers of the bounce from the event just visited.
     fn numbers(&mut self, ctx: &mut PathContext, _walk: &Walk) -> [f32; 4] {
         ctx.sampler.next_4d()
@@ -269,6 +277,18 @@ pub fn step(
         Some(&mut *ctx.sampler),
         ctx.counters,
     );
+    take(ctx, walk, next, visitor)
+}
+
+/// Takes the event `next` that tracing `walk.ray` reached (`step`'s
+/// second half, for a ray traced elsewhere): `Go` while the walk goes on.
+#[inline(always)]
+pub fn take(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    next: Next,
+    visitor: &mut impl Visitor,
+) -> Flow {
     match next {
         Next::Surface { hit, eta, medium } => {
             if visitor.arrive(ctx, walk, Some(&hit)) == Flow::End {
@@ -366,7 +386,9 @@ fn at_surface(
         at: Scatterer::Surface { hit, bsdf, medium },
         wo: -walk.ray.dir,
     };
-    if visitor.scatter_from(ctx, walk, &event) == Flow::End {
+    if visitor.scatter_from(ctx, walk, &event) == Flow::End
+        || visitor.takes_bounce(ctx, walk, &event)
+    {
         return false;
     }
     let u = visitor.numbers(ctx, walk);
@@ -421,13 +443,49 @@ fn scatter_by(
     u_rr: f32,
     visitor: &mut impl Visitor,
 ) -> bool {
+    bounce_by(ctx, walk, event, sample, visitor).is_some() && roulette(ctx, walk, u_rr)
+}
+
+/// `scatter_along_lobe` without Russian roulette: `walk` leaves the
+/// surface along the lobe, weighted by its probability, which is returned
+/// (None where the lobe carries nothing).
+pub fn bounce_along_lobe(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    event: &Event,
+    reflect: bool,
+    (u0, u1): (f32, f32),
+    visitor: &mut impl Visitor,
+) -> Option<f32> {
+    let mode = visitor.mode();
+    let sample = |bsdf: &Bsdf| bsdf.sample_lobe(event.wo, reflect, (u0, u1), mode);
+    bounce_by(ctx, walk, event, sample, visitor)
+}
+
+/// Russian roulette after a bounce, with the number `u_rr`: whether the
+/// walk goes on (its throughput raised if it does).
+#[inline(always)]
+pub fn roulette(ctx: &mut PathContext, walk: &mut Walk, u_rr: f32) -> bool {
+    let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
+    walk.flight
+        .roulette(ctx.wl, eta_scale, depth, rr_depth, u_rr)
+}
+
+/// The bounce itself: the throughput, the new ray, and the IOR stack
+/// across the surface; the sample's weight, None if there was none.
+#[inline(always)]
+fn bounce_by(
+    ctx: &mut PathContext,
+    walk: &mut Walk,
+    event: &Event,
+    sample: impl FnOnce(&Bsdf) -> Option<(crate::material::BsdfSample, f32)>,
+    visitor: &mut impl Visitor,
+) -> Option<f32> {
     let Scatterer::Surface { hit, bsdf, medium } = event.at else {
-        return false;
+        return None;
     };
     let mode = visitor.mode();
-    let Some((bs, weight)) = sample(bsdf) else {
-        return false;
-    };
+    let (bs, weight) = sample(bsdf)?;
     walk.flight.beta *= bs.f * (weight * bsdf.cos_theta(bs.wi) / bs.pdf);
     visitor.scattered(ctx.scene, walk, event, bs.wi, bs.pdf, bs.is_specular());
     walk.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, bs.wi), bs.wi);
@@ -443,7 +501,5 @@ fn scatter_by(
     if crossed && medium.is_some() && mode == TransportMode::Radiance {
         walk.eta_scale *= bs.eta * bs.eta;
     }
-    let (eta_scale, depth, rr_depth) = (walk.eta_scale, walk.depth, walk.rr_depth);
-    walk.flight
-        .roulette(ctx.wl, eta_scale, depth, rr_depth, u_rr)
+    Some(weight)
 }
