@@ -124,7 +124,8 @@ pub trait Visitor {
     /// At a surface, after `scatter_from`, where the walk would draw one
     /// BSDF sample: the visitor may take the bounce itself and walk the
     /// path on to its end (true). Not asked where a caller follows one
-    /// lobe (`Dispersion`) or a branch.
+    /// lobe (`Dispersion::follow_refraction`, `reflect_all`) or draws a
+    /// branch's bounce itself (`scatter_from_surface`).
     fn takes_bounce(&mut self, _ctx: &mut PathContext, _walk: &Walk, _event: &Event) -> bool {
         false
     }
