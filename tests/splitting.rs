@@ -15,8 +15,14 @@ fn with_split(text: &str, split: u32) -> Loaded {
 }
 
 fn split_by(text: &str, kind: &str, split: u32) -> Loaded {
+    with_key(text, kind, "split", split)
+}
+
+/// `text` rendered by integrator `kind` with `[integrator]` key `key` set
+/// to `value`.
+fn with_key(text: &str, kind: &str, key: &str, value: impl std::fmt::Display) -> Loaded {
     common::scene(&format!(
-        "{text}\n[integrator]\ntype = \"{kind}\"\nsplit = {split}\n"
+        "{text}\n[integrator]\ntype = \"{kind}\"\n{key} = {value}\n"
     ))
 }
 
@@ -77,9 +83,7 @@ fn splitting_lowers_the_noise_per_sample() {
 fn dispersive(kind: &str, split_dispersion: bool) -> Loaded {
     let text = GLASS_METAL_SHADING.replace("ior = 1.5\nroughness = 0.3", "ior = \"N-SF11\"");
     assert!(text.contains("N-SF11"));
-    common::scene(&format!(
-        "{text}\n[integrator]\ntype = \"{kind}\"\nsplit_dispersion = {split_dispersion}\n"
-    ))
+    with_key(&text, kind, "split_dispersion", split_dispersion)
 }
 
 #[test]
@@ -151,9 +155,7 @@ fn renders(loaded: &Loaded, runs: u64) -> Vec<prism::film::Film> {
 /// `text` rendered by integrator `kind` with glass met first followed
 /// along both lobes (`split_glass`) or along one drawn by Fresnel.
 fn split_glass(text: &str, kind: &str, split_glass: bool) -> Loaded {
-    common::scene(&format!(
-        "{text}\n[integrator]\ntype = \"{kind}\"\nsplit_glass = {split_glass}\n"
-    ))
+    with_key(text, kind, "split_glass", split_glass)
 }
 
 #[test]
@@ -182,9 +184,7 @@ fn glass_followed_along_both_lobes_agrees_with_one_drawn() {
 /// `text` rendered by integrator `kind`, smooth glass past the first
 /// surface looked ahead at along both lobes (`look_ahead`) or not.
 fn look_ahead(text: &str, kind: &str, look_ahead: bool) -> Loaded {
-    common::scene(&format!(
-        "{text}\n[integrator]\ntype = \"{kind}\"\nlook_ahead = {look_ahead}\n"
-    ))
+    with_key(text, kind, "look_ahead", look_ahead)
 }
 
 /// A smooth glass ball filling the view under a wide lamp, before a floor

@@ -2,10 +2,14 @@
 //! `crate::drive`, written once: `renders_by_pixels!` for a
 //! `PixelEstimator` (samples measure their own pixel), `renders_by_splats!`
 //! for a `SplatEstimator` (samples add light to any pixel). Each takes the
-//! type.
+//! type, and `renders_by_pixels!` the field that holds the depth limit
+//! where it is not `max_depth`.
 
 macro_rules! renders_by_pixels {
     ($ty:ty) => {
+        renders_by_pixels!($ty, max_depth);
+    };
+    ($ty:ty, $($depth:ident).+) => {
         impl $crate::integrator::Integrate for $ty {
             fn check(
                 &self,
@@ -33,7 +37,7 @@ macro_rules! renders_by_pixels {
             }
 
             fn max_depth(&self) -> u32 {
-                self.max_depth
+                self.$($depth).+
             }
         }
     };

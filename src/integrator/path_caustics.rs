@@ -44,19 +44,10 @@ use serde::Deserialize;
 /// Path tracing with a caustic photon map (`type = "path_caustics"`).
 #[derive(Clone, Debug)]
 pub struct PathCaustics {
-    pub max_depth: u32,
-    pub rr_depth: u32,
-    /// Camera paths follow each wavelength on its own past the first
-    /// smooth dispersive interface (`PathTracer::split_dispersion`).
-    pub split_dispersion: bool,
-    /// Continuations per camera sample from its first surface that is not
-    /// a Dirac one (`PathTracer::split`).
-    pub split: u32,
-    /// Follow both lobes of glass met first (`PathTracer::split_glass`).
-    pub split_glass: bool,
-    /// Trace ahead the lobes of smooth glass that leave every object
-    /// (`PathTracer::look_ahead`).
-    pub look_ahead: bool,
+    /// The camera paths' tracer: depth, roulette (the photons' too) and
+    /// how they split (`split`, `split_dispersion`, `split_glass`,
+    /// `look_ahead`).
+    pub camera: PathTracer,
     /// The photon side: its counts, radii and kernels.
     photons: Sppm,
     /// Per scene (keyed by `Scene::id`): where photons are aimed.
@@ -121,14 +112,11 @@ impl Configure for PathCaustics {
     type Params = CausticParams;
 
     fn configure(common: &CommonParams, spec: CausticParams) -> Result<Self, String> {
-        let split_dispersion = spec
-            .split_dispersion
-            .unwrap_or(PathTracer::default().split_dispersion);
+        let d = PathTracer::default();
+        let split_dispersion = spec.split_dispersion.unwrap_or(d.split_dispersion);
         let split = check_split(spec.split.unwrap_or(1))?;
-        let split_glass = spec
-            .split_glass
-            .unwrap_or(PathTracer::default().split_glass);
-        let look_ahead = spec.look_ahead.unwrap_or(PathTracer::default().look_ahead);
+        let split_glass = spec.split_glass.unwrap_or(d.split_glass);
+        let look_ahead = spec.look_ahead.unwrap_or(d.look_ahead);
         let spec = SppmParams {
             photons: spec.photons,
             radius: spec.radius,
@@ -136,13 +124,17 @@ impl Configure for PathCaustics {
             spectral_radius: None,
         };
         let photons = Sppm::configure(common, spec)?;
-        Ok(Self {
+        let camera = PathTracer {
             max_depth: photons.max_depth,
             rr_depth: photons.rr_depth,
             split_dispersion,
             split,
             split_glass,
             look_ahead,
+            ..d
+        };
+        Ok(Self {
+            camera,
             photons,
             aim: Arc::default(),
         })
@@ -158,11 +150,7 @@ impl Default for PathCaustics {
 
 impl PartialEq for PathCaustics {
     fn eq(&self, other: &Self) -> bool {
-        self.photons == other.photons
-            && self.split_dispersion == other.split_dispersion
-            && self.split == other.split
-            && self.split_glass == other.split_glass
-            && self.look_ahead == other.look_ahead
+        self.photons == other.photons && self.camera == other.camera
     }
 }
 
@@ -209,7 +197,7 @@ impl PixelEstimator for PathCaustics {
             }),
             None => (PhotonMap::default(), PathCounters::default()),
         };
-        let max_depth = self.max_depth;
+        let max_depth = self.camera.max_depth;
         (CausticMap { map, max_depth, wl }, counters)
     }
 
@@ -234,22 +222,13 @@ impl PixelEstimator for PathCaustics {
         let mut wl = caustics.wl;
         let seen = wl.lambda;
         let ray = camera_ray(scene, x as f32 + dx, y as f32 + dy, sampler);
-        let tracer = PathTracer {
-            max_depth: self.max_depth,
-            rr_depth: self.rr_depth,
-            split_dispersion: self.split_dispersion,
-            split: self.split,
-            split_glass: self.split_glass,
-            look_ahead: self.look_ahead,
-            ..PathTracer::default()
-        };
         let mut ctx = PathContext {
             scene,
             wl: &mut wl,
             sampler,
             counters,
         };
-        let l = tracer.radiance_with(&mut ctx, ray, caustics);
+        let l = self.camera.radiance_with(&mut ctx, ray, caustics);
         // Fluorescence may have moved the wavelengths the path carries;
         // the film bins the light at those the camera saw.
         wl.lambda = seen;
@@ -257,7 +236,7 @@ impl PixelEstimator for PathCaustics {
     }
 }
 
-renders_by_pixels!(PathCaustics);
+renders_by_pixels!(PathCaustics, camera.max_depth);
 
 /// Iteration `index`'s wavelength number: the base-2 radical inverse of
 /// the index, turned by a number of the seed (Cranley–Patterson), so that
@@ -338,7 +317,7 @@ impl PathCaustics {
     /// light; the paths are the same).
     fn camera_pilot(&self, scene: &Scene, map: PhotonMap, wl: SampledWavelengths) -> (f64, f64) {
         let (w, h) = scene.camera.resolution();
-        let max_depth = self.max_depth;
+        let max_depth = self.camera.max_depth;
         let with = CausticMap { map, max_depth, wl };
         let without = CausticMap {
             map: PhotonMap::default(),
@@ -493,7 +472,7 @@ impl PathCaustics {
             sampler,
             counters,
         };
-        let (max_depth, rr_depth) = (self.max_depth, self.rr_depth);
+        let (max_depth, rr_depth) = (self.camera.max_depth, self.camera.rr_depth);
         light_path::walk_until(&mut ctx, start, max_depth, rr_depth, |v| {
             let Scatterer::Surface { hit, bsdf, .. } = v.at else {
                 return Flow::End;
