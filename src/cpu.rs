@@ -1,13 +1,30 @@
 //! The CPU features the binary was compiled for (`.cargo/config.toml` asks
 //! for x86-64-v3 on x86-64) against those of the CPU it runs on: compiled
-//! code may use any of them anywhere, so a CPU without one would stop at the
-//! first such instruction with SIGILL. `refuse_if_missing` lets `main` say
-//! so before any of that code runs.
+//! code may use any of them anywhere, so a CPU without one would stop at
+//! the first such instruction with SIGILL. `refuse_if_missing` runs the
+//! embedded baseline build instead, or says so and exits, before any of
+//! that code runs.
 //!
 //! The CPU is asked with CPUID itself: `is_x86_feature_detected!` answers
 //! `true` without asking for a feature the build enables.
+//!
+//! `cargo build --release` compiles the whole program for x86-64-v3 and,
+//! in `build.rs`, a second time for baseline x86-64, which it embeds:
+//! `refuse_if_missing` runs that one on a CPU without AVX2, so the binary
+//! runs on any x86-64 CPU.
 
 use std::io::Write;
+
+/// The instruction set the whole program was compiled for: on x86-64,
+/// x86-64-v3 (AVX2, `.cargo/config.toml`) or, in the build `build.rs`
+/// embeds for older CPUs, baseline x86-64.
+pub const COMPILED_FOR: &str = if cfg!(not(target_arch = "x86_64")) {
+    std::env::consts::ARCH
+} else if cfg!(target_feature = "avx2") {
+    "x86-64-v3"
+} else {
+    "x86-64"
+};
 
 /// A feature: its name (as `target_feature` spells it), whether this build
 /// uses it, and whether the running CPU (and its OS) has it.
@@ -128,18 +145,97 @@ pub fn write_refusal(features: &[Feature], out: &mut impl Write) -> bool {
         let _ = out.write_all(f.name.as_bytes());
     }
     let _ = out.write_all(
-        b", which this build of prism uses (x86-64-v3, set in .cargo/config.toml); \
-          build it for this CPU with RUSTFLAGS=\"-C target-cpu=native\" cargo build --release\n",
+        b", which this build of prism was compiled to use everywhere (RUSTFLAGS \
+          -C target-cpu or target-feature); build it with plain cargo build --release, \
+          which runs on any x86-64 CPU, or with RUSTFLAGS=\"-C target-cpu=native\" on this one\n",
     );
     true
 }
 
-/// Exits with status 1 and the message of `write_refusal` where the CPU
-/// lacks a feature the build uses. Call it first in `main`.
+/// Where the CPU lacks a feature the build uses, runs the embedded baseline
+/// build in this process's place, or, where there is none or it cannot be
+/// started, exits with status 1 and the message of `write_refusal`. Call it
+/// first in `main`.
 #[inline(never)]
 pub fn refuse_if_missing() {
-    if write_refusal(&features(), &mut std::io::stderr()) {
+    let features = features();
+    if !features.iter().any(|f| f.compiled && !f.present) {
+        return;
+    }
+    if BASELINE_EMBEDDED {
+        let _ = exec_baseline();
+        let _ = std::io::stderr().write_all(b"error: the embedded baseline build did not start\n");
+    }
+    if write_refusal(&features, &mut std::io::stderr()) {
         std::process::exit(1);
+    }
+}
+
+/// Whether this binary carries a build of itself for baseline x86-64
+/// (build.rs: release builds for x86-64 Linux).
+pub const BASELINE_EMBEDDED: bool = cfg!(prism_baseline_embedded);
+
+/// Replaces this process with the embedded baseline build, with the same
+/// arguments and environment. Returns only where that fails.
+#[cfg(prism_baseline_embedded)]
+pub fn exec_baseline() -> std::io::Error {
+    static BINARY: &[u8] = include_bytes!(env!("PRISM_BASELINE_BINARY"));
+    let (argv, envp) = startup::arguments();
+    if argv.is_null() || envp.is_null() {
+        return std::io::Error::other("no arguments from the C runtime");
+    }
+    // SAFETY: plain system calls on a file this function creates; argv
+    // and envp are the C runtime's, null-terminated and never freed.
+    unsafe {
+        let fd = libc::memfd_create(c"prism-x86-64".as_ptr(), libc::MFD_CLOEXEC);
+        if fd < 0 {
+            return std::io::Error::last_os_error();
+        }
+        let mut rest = BINARY;
+        while !rest.is_empty() {
+            let n = libc::write(fd, rest.as_ptr().cast(), rest.len());
+            if n <= 0 {
+                return std::io::Error::last_os_error();
+            }
+            rest = &rest[n as usize..];
+        }
+        libc::fexecve(fd, argv, envp);
+    }
+    std::io::Error::last_os_error()
+}
+
+#[cfg(not(prism_baseline_embedded))]
+pub fn exec_baseline() -> std::io::Error {
+    std::io::Error::other("this build of prism carries no baseline build")
+}
+
+/// The arguments and environment as the C runtime passed them, before
+/// anything ran: glibc calls each function of `.init_array` with argc,
+/// argv and envp. Kept as the C runtime's pointers, so that running the
+/// baseline build needs no allocation and no code that may use
+/// instructions the CPU lacks.
+#[cfg(prism_baseline_embedded)]
+mod startup {
+    use std::ffi::{c_char, c_int};
+    use std::sync::atomic::{AtomicPtr, Ordering};
+
+    static ARGV: AtomicPtr<*const c_char> = AtomicPtr::new(std::ptr::null_mut());
+    static ENVP: AtomicPtr<*const c_char> = AtomicPtr::new(std::ptr::null_mut());
+
+    #[used]
+    #[link_section = ".init_array"]
+    static CAPTURE: extern "C" fn(c_int, *const *const c_char, *const *const c_char) = capture;
+
+    extern "C" fn capture(_argc: c_int, argv: *const *const c_char, envp: *const *const c_char) {
+        ARGV.store(argv.cast_mut(), Ordering::Relaxed);
+        ENVP.store(envp.cast_mut(), Ordering::Relaxed);
+    }
+
+    pub fn arguments() -> (*const *const c_char, *const *const c_char) {
+        (
+            ARGV.load(Ordering::Relaxed).cast_const(),
+            ENVP.load(Ordering::Relaxed).cast_const(),
+        )
     }
 }
 

@@ -414,9 +414,32 @@ fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
     Ok(std::time::Duration::from_secs_f64(v * seconds))
 }
 
+/// `PRISM_BASELINE=1` runs the baseline x86-64 build embedded in this one,
+/// as a CPU without AVX2 does: to compare the two on one machine.
+fn run_baseline_if_asked() -> Result<(), String> {
+    match std::env::var("PRISM_BASELINE").as_deref() {
+        Err(_) | Ok("0") => Ok(()),
+        Ok("1") if prism::cpu::COMPILED_FOR == "x86-64" => Ok(()),
+        Ok("1") if prism::cpu::BASELINE_EMBEDDED => Err(format!(
+            "PRISM_BASELINE=1: the baseline build did not start: {}",
+            prism::cpu::exec_baseline()
+        )),
+        Ok("1") => Err(
+            "PRISM_BASELINE=1: this build of prism carries no baseline build \
+                        (only release builds for x86-64 Linux do)"
+                .into(),
+        ),
+        Ok(other) => Err(format!("PRISM_BASELINE={other:?} is neither 0 nor 1")),
+    }
+}
+
 fn main() -> ExitCode {
     // First, before code that may use instructions this CPU lacks.
     prism::cpu::refuse_if_missing();
+    if let Err(e) = run_baseline_if_asked() {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
+    }
     prism::memory::share_allocator_arenas();
     let cli = Cli::parse();
     match run(cli) {

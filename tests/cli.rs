@@ -482,25 +482,35 @@ fn memory_bombs_are_refused_before_allocation() {
     }
 }
 
-/// A CPU older than the build's target (x86-64-v3) gets a message and exit
-/// status 1, not SIGILL: the binary run under QEMU as a Nehalem (SSE4.2, no
-/// AVX). `.ci/run` installs `qemu-user`; without it the test says so and
-/// passes, as it cannot emulate the old CPU.
+/// A CPU older than the build's target (x86-64-v3), the binary run under
+/// QEMU as a Nehalem (SSE4.2, no AVX): where the release build embeds its
+/// baseline build (build.rs) it runs that, else it says what the CPU lacks
+/// and exits with status 1, never SIGILL. `.ci/run` installs `qemu-user`;
+/// without it the test says so and passes, as it cannot emulate the old
+/// CPU.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[test]
-fn an_older_cpu_is_told_what_it_lacks_instead_of_crashing() {
-    let run = Command::new("qemu-x86_64")
-        .args(["-cpu", "Nehalem", env!("CARGO_BIN_EXE_prism"), "--version"])
-        .output();
-    let Ok(out) = run else {
+fn an_older_cpu_runs_the_baseline_build_or_is_told_what_it_lacks() {
+    let nehalem = |binary: &str, args: &[&str]| {
+        Command::new("qemu-x86_64")
+            .args(["-cpu", "Nehalem", binary])
+            .args(args)
+            .output()
+    };
+    let Ok(out) = nehalem(env!("CARGO_BIN_EXE_prism"), &["--version"]) else {
         eprintln!("qemu-x86_64 not found: the old-CPU check is not exercised here");
         return;
     };
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("this CPU lacks"), "{stderr}");
-    assert!(stderr.contains("avx2"), "{stderr}");
-    assert!(stderr.contains("target-cpu=native"), "{stderr}");
+    if prism::cpu::BASELINE_EMBEDDED {
+        assert!(out.status.success(), "{stderr}");
+        assert!(String::from_utf8_lossy(&out.stdout).starts_with("prism "));
+    } else {
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("this CPU lacks"), "{stderr}");
+        assert!(stderr.contains("avx2"), "{stderr}");
+        assert!(stderr.contains("target-cpu=native"), "{stderr}");
+    }
     // The same binary on a CPU that has the features runs.
     succeed(Command::new("qemu-x86_64").args([
         "-cpu",
@@ -508,6 +518,61 @@ fn an_older_cpu_is_told_what_it_lacks_instead_of_crashing() {
         env!("CARGO_BIN_EXE_prism"),
         "--version",
     ]));
+    // QEMU runs what the binary executes on the host CPU, so the embedded
+    // build itself is rendered with as a Nehalem.
+    #[cfg(prism_baseline_embedded)]
+    {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("s.toml");
+        std::fs::write(&scene, SCENE).unwrap();
+        let scene = scene.to_str().unwrap();
+        let out = nehalem(env!("PRISM_BASELINE_BINARY"), &["render", scene]).unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(stderr.contains("(x86-64 code)"), "{stderr}");
+        assert!(dir.path().join("s.exr").exists());
+    }
+}
+
+/// `PRISM_BASELINE=1` runs the embedded baseline x86-64 build (the one a
+/// CPU without AVX2 runs): it renders the same image, bit for bit (Rust
+/// fuses no multiply-adds, so the wider instructions change no result). A
+/// value other than 0 or 1 is refused with a message.
+#[cfg(prism_baseline_embedded)]
+#[test]
+fn the_baseline_build_renders_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let mut images = Vec::new();
+    for (baseline, code) in [("0", "(x86-64-v3 code)"), ("1", "(x86-64 code)")] {
+        let stem = dir.path().join(format!("b{baseline}"));
+        let out = prism()
+            .env("PRISM_BASELINE", baseline)
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&stem)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(stderr.contains(code), "{stderr}");
+        images.push(std::fs::read(stem.with_extension("exr")).unwrap());
+    }
+    assert!(images[0] == images[1], "the two builds' images differ");
+    let out = prism()
+        .env("PRISM_BASELINE", "yes")
+        .arg("render")
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("PRISM_BASELINE=\"yes\" is neither 0 nor 1"),
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -282,7 +282,8 @@ fn pass_hooks(job: &RenderJob, stem: &Path, film: &FilmSettings) -> Option<PassH
 fn report_render(options: &RenderOptions, result: &Film, stats: &RenderStats, film: &FilmSettings) {
     let secs = stats.elapsed.as_secs_f64();
     eprintln!(
-        "rendered {} samples ({}) in {:.2} s: {:.2} M samples/s, {:.2} M rays/s{}{}",
+        "rendered {} samples ({}) in {:.2} s ({} code): {:.2} M samples/s, \
+         {:.2} M rays/s{}{}",
         stats.samples,
         if options.adaptive {
             "adaptive".to_string()
@@ -290,6 +291,7 @@ fn report_render(options: &RenderOptions, result: &Film, stats: &RenderStats, fi
             format!("{} per pixel", stats.spp)
         },
         secs,
+        crate::cpu::COMPILED_FOR,
         stats.samples as f64 / secs / 1e6,
         stats.rays as f64 / secs / 1e6,
         match stats.estimated_rel_mse {
