@@ -417,8 +417,10 @@ fn parse_duration(s: &str) -> Result<std::time::Duration, String> {
 /// `PRISM_BASELINE=1` runs the baseline x86-64 build embedded in this one,
 /// as a CPU without AVX2 does: to compare the two on one machine.
 fn run_baseline_if_asked() -> Result<(), String> {
+    use std::env::VarError;
     match std::env::var("PRISM_BASELINE").as_deref() {
-        Err(_) | Ok("0") => Ok(()),
+        Err(VarError::NotPresent) | Ok("0") => Ok(()),
+        Err(VarError::NotUnicode(v)) => Err(format!("PRISM_BASELINE={v:?} is neither 0 nor 1")),
         Ok("1") if prism::cpu::COMPILED_FOR == "x86-64" => Ok(()),
         Ok("1") if prism::cpu::BASELINE_EMBEDDED => Err(format!(
             "PRISM_BASELINE=1: the baseline build did not start: {}",
@@ -426,7 +428,7 @@ fn run_baseline_if_asked() -> Result<(), String> {
         )),
         Ok("1") => Err(
             "PRISM_BASELINE=1: this build of prism carries no baseline build \
-                        (only release builds for x86-64 Linux do)"
+             (only release builds for x86-64 Linux do)"
                 .into(),
         ),
         Ok(other) => Err(format!("PRISM_BASELINE={other:?} is neither 0 nor 1")),
