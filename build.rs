@@ -4,9 +4,9 @@
 //! embedded baseline build instead (src/cpu.rs). One `cargo build
 //! --release` makes both.
 //!
-//! Only release builds for x86-64 Linux embed one. The second build has a
-//! target folder of its own (`target/baseline`): its flags differ, and the
-//! running build holds the lock on its own folder. It is built without LTO,
+//! Only release builds for x86-64 Linux (glibc) embed one. The second
+//! build has a target folder of its own (`target/baseline`): its flags
+//! differ, and the running build holds the lock on its own folder. It is built without LTO,
 //! in 16 codegen units and incrementally, and stripped: a fallback for old
 //! CPUs, quick to rebuild after a change. `PRISM_BASELINE_BUILD` marks it,
 //! so that it does not build a third.
@@ -23,8 +23,10 @@ fn main() {
     println!("cargo:rerun-if-env-changed=PRISM_BASELINE_BUILD");
     println!("cargo:rustc-check-cfg=cfg(prism_baseline_embedded)");
     let var = |name: &str| env::var(name).unwrap_or_default();
+    // glibc: it hands `.init_array` functions the arguments (src/cpu.rs).
     let wanted = var("CARGO_CFG_TARGET_ARCH") == "x86_64"
         && var("CARGO_CFG_TARGET_OS") == "linux"
+        && var("CARGO_CFG_TARGET_ENV") == "gnu"
         && var("PROFILE") == "release"
         && env::var_os("PRISM_BASELINE_BUILD").is_none();
     if !wanted {
@@ -44,6 +46,7 @@ fn main() {
         .args(["build", "--release", "--offline", "--bin", "prism"])
         .arg("--target-dir")
         .arg(&target_dir)
+        .args(["--target", &var("TARGET")])
         .current_dir(var("CARGO_MANIFEST_DIR"))
         // Flags of the running build that must not reach this one.
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
@@ -62,7 +65,7 @@ fn main() {
         status.success(),
         "the baseline x86-64 build of prism failed"
     );
-    let binary = target_dir.join("release/prism");
+    let binary = target_dir.join(var("TARGET")).join("release/prism");
     println!("cargo:rustc-env=PRISM_BASELINE_BINARY={}", binary.display());
     println!("cargo:rustc-cfg=prism_baseline_embedded");
 }
