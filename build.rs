@@ -6,9 +6,9 @@
 //!
 //! Only release builds for x86-64 Linux (glibc) embed one. The second
 //! build has a target folder of its own (`target/baseline`): its flags
-//! differ, and the running build holds the lock on its own folder. It is built without LTO,
-//! in 16 codegen units and incrementally, and stripped: a fallback for old
-//! CPUs, quick to rebuild after a change. `PRISM_BASELINE_BUILD` marks it,
+//! differ, and the running build holds the lock on its own folder. It is
+//! built without LTO, in 16 codegen units and incrementally, and stripped:
+//! a fallback for old CPUs, quick to rebuild after a change. `PRISM_BASELINE_BUILD` marks it,
 //! so that it does not build a third.
 
 use std::env;
@@ -51,8 +51,6 @@ fn main() {
         // Flags of the running build that must not reach this one.
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
         .env_remove("RUSTC_WORKSPACE_WRAPPER")
-        .env_remove("CARGO_TARGET_DIR")
-        .env_remove("CARGO_BUILD_TARGET_DIR")
         .env("RUSTFLAGS", "-C target-cpu=x86-64")
         .env("PRISM_BASELINE_BUILD", "1")
         .env("CARGO_PROFILE_RELEASE_LTO", "false")

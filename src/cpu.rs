@@ -35,6 +35,13 @@ pub struct Feature {
     pub present: bool,
 }
 
+impl Feature {
+    /// Compiled in, but the CPU lacks it.
+    pub fn missing(&self) -> bool {
+        self.compiled && !self.present
+    }
+}
+
 /// The features of x86-64-v2/v3 (and AVX-512F) this build may use.
 #[cfg(target_arch = "x86_64")]
 pub fn features() -> [Feature; 14] {
@@ -134,7 +141,7 @@ pub fn features() -> [Feature; 0] {
 /// Writes why the binary cannot run here, if it cannot: plain writes of
 /// static text (no formatting), as little compiled code as can be.
 pub fn write_refusal(features: &[Feature], out: &mut impl Write) -> bool {
-    let mut missing = features.iter().filter(|f| f.compiled && !f.present);
+    let mut missing = features.iter().filter(|f| f.missing());
     let Some(first) = missing.next() else {
         return false;
     };
@@ -159,7 +166,7 @@ pub fn write_refusal(features: &[Feature], out: &mut impl Write) -> bool {
 #[inline(never)]
 pub fn refuse_if_missing() {
     let features = features();
-    if !features.iter().any(|f| f.compiled && !f.present) {
+    if !features.iter().any(Feature::missing) {
         return;
     }
     if BASELINE_EMBEDDED {

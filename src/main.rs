@@ -428,7 +428,7 @@ fn run_baseline_if_asked() -> Result<(), String> {
         )),
         Ok("1") => Err(
             "PRISM_BASELINE=1: this build of prism carries no baseline build \
-             (only release builds for x86-64 Linux do)"
+             (only release builds for x86-64 Linux with glibc do)"
                 .into(),
         ),
         Ok(other) => Err(format!("PRISM_BASELINE={other:?} is neither 0 nor 1")),
