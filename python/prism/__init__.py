@@ -20,6 +20,12 @@ colour-science ``SpectralDistribution`` objects anywhere a scene takes one.
 
 from __future__ import annotations
 
+from ._cpu import refuse_an_unfit_cpu
+
+# Before anything of the native module runs: on a CPU without AVX2 it
+# would stop with SIGILL at its first instruction of x86-64-v3.
+refuse_an_unfit_cpu()
+
 import math
 import os
 import sys
