@@ -26,6 +26,10 @@ pub const COMPILED_FOR: &str = if cfg!(not(target_arch = "x86_64")) {
     "x86-64"
 };
 
+/// This is the baseline x86-64 build (the one `build.rs` embeds), not the
+/// x86-64-v3 build that carries it.
+pub const IS_BASELINE_BUILD: bool = cfg!(target_arch = "x86_64") && !cfg!(target_feature = "avx2");
+
 /// A feature: its name (as `target_feature` spells it), whether this build
 /// uses it, and whether the running CPU (and its OS) has it.
 #[derive(Clone, Copy, Debug)]

@@ -421,7 +421,7 @@ fn run_baseline_if_asked() -> Result<(), String> {
     match std::env::var("PRISM_BASELINE").as_deref() {
         Err(VarError::NotPresent) | Ok("0") => Ok(()),
         Err(VarError::NotUnicode(v)) => Err(format!("PRISM_BASELINE={v:?} is neither 0 nor 1")),
-        Ok("1") if prism::cpu::COMPILED_FOR == "x86-64" => Ok(()),
+        Ok("1") if prism::cpu::IS_BASELINE_BUILD => Ok(()),
         Ok("1") if prism::cpu::BASELINE_EMBEDDED => Err(format!(
             "PRISM_BASELINE=1: the baseline build did not start: {}",
             prism::cpu::exec_baseline()
