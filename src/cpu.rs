@@ -20,10 +20,10 @@ use std::io::Write;
 /// embeds for older CPUs, baseline x86-64.
 pub const COMPILED_FOR: &str = if cfg!(not(target_arch = "x86_64")) {
     std::env::consts::ARCH
-} else if cfg!(target_feature = "avx2") {
-    "x86-64-v3"
-} else {
+} else if IS_BASELINE_BUILD {
     "x86-64"
+} else {
+    "x86-64-v3"
 };
 
 /// This is the baseline x86-64 build (the one `build.rs` embeds), not the
