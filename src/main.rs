@@ -13,7 +13,7 @@ use prism::job::{
     RenderJob, SpectrumQuery,
 };
 use prism::load::Overrides;
-use prism::render::Streams;
+use prism::render::{Packets, Streams};
 
 /// prism: a spectral, physically based path tracer.
 #[derive(Parser)]
@@ -148,7 +148,13 @@ enum Command {
         /// than 16 MiB (a tree that fits the caches gains nothing). The
         /// image is the same, bit for bit.
         #[arg(long, value_enum, default_value = "auto")]
-        stream: StreamArg,
+        stream: Streams,
+        /// Advance the path tracer's samples as packets of paths, shaded
+        /// together: `auto` where the scene needs only what the packet core
+        /// models (diffuse surfaces, no media). `never` renders one path at
+        /// a time. The image is the same in distribution, not bit for bit.
+        #[arg(long, value_enum, default_value = "auto")]
+        packets: Packets,
         /// Hide the progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -306,23 +312,6 @@ enum TonemapArg {
 enum GamutArg {
     Clip,
     Map,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum StreamArg {
-    Auto,
-    Always,
-    Never,
-}
-
-impl From<StreamArg> for Streams {
-    fn from(s: StreamArg) -> Self {
-        match s {
-            StreamArg::Auto => Streams::Auto,
-            StreamArg::Always => Streams::Always,
-            StreamArg::Never => Streams::Never,
-        }
-    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -485,6 +474,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             adaptive,
             uniform,
             stream,
+            packets,
         } => {
             let overrides = Overrides {
                 resolution,
@@ -498,7 +488,6 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 strategy: strategy.map(Into::into),
                 split,
             };
-            let interrupts = interrupts_on_ctrl_c()?;
             let job = RenderJob {
                 scene,
                 output,
@@ -509,14 +498,15 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 threads,
                 seed,
                 progress: !quiet,
-                interrupts,
+                interrupts: interrupts_on_ctrl_c()?,
                 time_budget: time,
                 target_error,
                 log_every: log_every.max(std::time::Duration::from_millis(100)),
                 preview_every,
                 display,
                 sampling: sampling_flag(adaptive, uniform),
-                streams: stream.into(),
+                streams: stream,
+                packets,
             };
             // 130: interrupted (Ctrl-C), as a shell reports it.
             let interrupted = render_files(&job)?.interrupted;

@@ -7,13 +7,15 @@
 
 use crate::common::repo_scene;
 use prism::film::Film;
-use prism::render::{render, RenderOptions, Streams};
+use prism::render::{render, Packets, RenderOptions, Streams};
 
 fn film(scene: &str, film: &str, integrator: &str, streams: Streams) -> Film {
     let loaded = repo_scene(scene, film, integrator);
     let options = RenderOptions {
         threads: Some(2),
         streams,
+        // Both one path at a time or as a stream, not as packets.
+        packets: Packets::Never,
         ..loaded.settings.options()
     };
     render(&loaded.scene, &loaded.settings, &options).unwrap().0

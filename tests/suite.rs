@@ -30,6 +30,7 @@ mod lights;
 mod media;
 mod medium_boundary;
 mod merge;
+mod packet;
 mod path_caustics;
 mod progressive;
 mod sampling;

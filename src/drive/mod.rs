@@ -13,6 +13,7 @@
 //! tile's samples, the job's `stop_reason`, `after_pass` and `finish`.
 
 pub mod adaptive;
+pub mod in_order;
 mod job;
 mod options;
 pub mod pixels;
@@ -22,7 +23,7 @@ pub mod stream;
 pub mod tile;
 
 pub use job::{Outcome, RenderJob, TileRect};
-pub use options::{PassHook, RenderError, RenderOptions, RenderStats, Stop, Streams};
+pub use options::{Packets, PassHook, RenderError, RenderOptions, RenderStats, Stop, Streams};
 pub use progress::ProgressCounts;
 
 use crate::film::{tile_spectrum_bytes, AovSample, FilmSettings, PixelSums, AOV_BYTES};

@@ -46,17 +46,30 @@ pub struct RenderOptions {
     /// Whether the path tracer advances a tile's samples as a stream of
     /// paths ([`super::stream`]); the image is the same either way.
     pub streams: Streams,
+    /// Whether the path tracer may advance a tile's samples as packets of
+    /// paths (`integrator::path_packet`), where the scene needs only what
+    /// the packet core models.
+    pub packets: Packets,
 }
 
 /// When camera samples advance as a stream of paths, their rays traced
 /// together: the same image, faster only where the scene's tree outgrows
 /// the caches.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Streams {
     /// Where the tree is larger than [`super::stream::STREAM_ABOVE_BYTES`].
     #[default]
     Auto,
     Always,
+    Never,
+}
+
+/// Whether the path tracer's packet core renders the scenes it models (the
+/// image is the same in distribution, not bit for bit).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Packets {
+    #[default]
+    Auto,
     Never,
 }
 
@@ -89,6 +102,7 @@ impl RenderOptions {
             after_pass: None,
             adaptive: false,
             streams: Streams::Auto,
+            packets: Packets::Auto,
         }
     }
 

@@ -8,12 +8,11 @@
 //! added to the tile in the order the one-at-a-time loop (`tile`) adds
 //! them: the image is the same, bit for bit.
 
-use std::collections::VecDeque;
 use std::ops::Range;
 
+use super::in_order::InOrder;
 use super::job::TileRect;
 use super::pixels::PixelEstimator;
-use super::tile::add_sample;
 use super::{PathCounters, PixelSample, RenderJob};
 use crate::film::FilmTile;
 use crate::geometry::triangle::TriangleHit;
@@ -79,13 +78,6 @@ struct InFlight<P> {
     goes_on: bool,
 }
 
-/// An ended sample waiting for those before it in the tile's order.
-struct Ended {
-    sample: (u32, u32, u32),
-    measured: PixelSample,
-    rays: u64,
-}
-
 /// `tile::render_tile` for a `StreamEstimator`: the same samples, added in
 /// the same order, advanced as a stream.
 pub fn render_tile<E: StreamEstimator>(
@@ -102,15 +94,11 @@ pub fn render_tile<E: StreamEstimator>(
         .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
         .flat_map(|(x, y)| indices(x, y).map(move |i| (x, y, i)));
     let mut flying: Vec<InFlight<E::Path<'_>>> = Vec::with_capacity(IN_FLIGHT);
-    // Ended samples from `committed` on, in order (None: still in flight).
-    let mut ended: VecDeque<Option<Ended>> = VecDeque::new();
-    let (mut committed, mut started) = (0u64, 0u64);
+    let mut in_order = InOrder::default();
     let mut rays = Vec::with_capacity(IN_FLIGHT);
     let mut triangles: [Option<(u32, TriangleHit)>; IN_FLIGHT] = [None; IN_FLIGHT];
     let mut hits: [Option<SurfaceHit>; IN_FLIGHT] = [None; IN_FLIGHT];
     let mut blocked = [false; IN_FLIGHT];
-    let mut counters = PathCounters::default();
-    let (mut bad, mut taken) = (0, 0);
     loop {
         // Refill the stream from the tile's next samples.
         while flying.len() < IN_FLIGHT {
@@ -119,14 +107,12 @@ pub fn render_tile<E: StreamEstimator>(
             };
             let sampler = Sampler::for_sample(seed, x, y, index as u64);
             flying.push(InFlight {
-                order: started,
+                order: in_order.start(),
                 sample: (x, y, index),
                 path: estimator.start(scene, (x, y), sampler),
                 counters: PathCounters::default(),
                 goes_on: true,
             });
-            ended.push_back(None);
-            started += 1;
         }
         if flying.is_empty() {
             break;
@@ -157,22 +143,11 @@ pub fn render_tile<E: StreamEstimator>(
                 continue;
             }
             let f = flying.swap_remove(k);
-            ended[(f.order - committed) as usize] = Some(Ended {
-                sample: f.sample,
-                measured: estimator.finish(f.path),
-                rays: f.counters.rays,
-            });
-            counters.add(&f.counters);
+            let measured = estimator.finish(f.path);
+            in_order.end(f.order, f.sample, measured, &f.counters);
         }
-        // Add the samples that ended, up to the first still in flight.
-        while let Some(Some(_)) = ended.front() {
-            let e = ended.pop_front().flatten().expect("checked above");
-            bad += add_sample(job, &mut tile, e.sample, &e.measured);
-            tile.add_rays(e.sample.0, e.sample.1, e.rays);
-            committed += 1;
-            taken += 1;
-        }
+        in_order.commit(job, &mut tile);
     }
-    job.count(taken, &counters, bad + tile.non_finite_splats);
+    in_order.finish(job, &tile);
     tile
 }

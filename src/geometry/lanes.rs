@@ -146,6 +146,12 @@ mod avx {
         pub fn from_halves(low: Vec4, high: Vec4) -> Self {
             unsafe { F32x8(_mm256_set_m128(high.into(), low.into())) }
         }
+
+        /// `a` in the lanes of `mask`, `b` in the others.
+        #[inline(always)]
+        pub fn select(mask: Mask8, a: F32x8, b: F32x8) -> F32x8 {
+            unsafe { F32x8(_mm256_blendv_ps(b.0, a.0, mask.0)) }
+        }
     }
 
     macro_rules! binary {

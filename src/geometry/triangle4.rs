@@ -45,6 +45,13 @@ impl Triangle4 {
     pub fn prim(&self, lane: usize) -> u32 {
         self.prim[lane]
     }
+
+    /// The triangle in `lane`.
+    #[inline(always)]
+    pub fn triangle(&self, lane: usize) -> [Vec3; 3] {
+        self.v
+            .map(|axes| Vec3::new(axes[0][lane], axes[1][lane], axes[2][lane]))
+    }
 }
 
 /// The per-ray values of the test, splatted across lanes.
@@ -121,10 +128,60 @@ fn intersect_lanes<L: Lanes>(
         let y = (v[s.k[1]] - s.origin[1]) + s.sy * z;
         (x, y, z)
     };
-    let (x0, y0, z0) = vertex(0);
-    let (x1, y1, z1) = vertex(1);
-    let (x2, y2, z2) = vertex(2);
+    let sheared = [vertex(0), vertex(1), vertex(2)];
+    let hits = test_sheared(sheared, s.sz, s.t_bound_factor, L::splat(t_max), lanes)?;
+    // The nearest lane; the lowest of equals.
+    let t = hits.t.to_array();
+    let mut lane = hits.lanes.trailing_zeros() as usize;
+    let mut rest = hits.lanes & (hits.lanes - 1);
+    while rest != 0 {
+        let l = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        if t[l] < t[lane] {
+            lane = l;
+        }
+    }
+    Some((lane, hits.hit(lane)))
+}
 
+/// What the test found in its lanes: which hit (bits), at what t, and the
+/// edge functions with 1/det that make the barycentrics.
+pub(super) struct LaneHits<L> {
+    pub lanes: u32,
+    pub t: L,
+    pub e: [L; 3],
+    pub inv_det: L,
+}
+
+impl<L: Lanes> LaneHits<L> {
+    /// Lane `lane`'s hit.
+    #[inline(always)]
+    pub fn hit(&self, lane: usize) -> TriangleHit {
+        let inv = self.inv_det.to_array()[lane];
+        let [e0, e1, e2] = self.e.map(|e| e.to_array()[lane]);
+        TriangleHit {
+            t: self.t.to_array()[lane],
+            b: [e0 * inv, e1 * inv, e2 * inv],
+        }
+    }
+}
+
+/// The rest of the watertight test once the vertices are translated to
+/// the ray origin, permuted and sheared (`sheared[k]`: vertex k's x, y and
+/// its z before scaling by `sz`): the lanes of `lanes` whose hit lies
+/// within (0, t_max), or None. A lane may hold another triangle (one ray,
+/// four or eight triangles) or another ray (one triangle, eight rays:
+/// `ray_packet`); either way it does the scalar test's operations in the
+/// same order.
+#[inline(always)]
+pub(super) fn test_sheared<L: Lanes>(
+    sheared: [(L, L, L); 3],
+    sz: L,
+    t_bound_factor: L,
+    t_max: L,
+    lanes: u32,
+) -> Option<LaneHits<L>> {
+    let [(x0, y0, z0), (x1, y1, z1), (x2, y2, z2)] = sheared;
     // Edge functions: signed areas seen from the ray.
     let mut e0 = x1 * y2 - y1 * x2;
     let mut e1 = x2 * y0 - y2 * x0;
@@ -157,9 +214,9 @@ fn intersect_lanes<L: Lanes>(
     }
 
     // Scaled distance, compared against the range without dividing.
-    let (z0, z1, z2) = (z0 * s.sz, z1 * s.sz, z2 * s.sz);
+    let (z0, z1, z2) = (z0 * sz, z1 * sz, z2 * sz);
     let t_scaled = e0 * z0 + e1 * z1 + e2 * z2;
-    let range = L::splat(t_max) * det;
+    let range = t_max * det;
     let below = det.cmplt(zero) & (t_scaled.cmpge(zero) | t_scaled.cmplt(range));
     let above = det.cmpgt(zero) & (t_scaled.cmple(zero) | t_scaled.cmpgt(range));
     ok = ok & !(below | above);
@@ -168,7 +225,7 @@ fn intersect_lanes<L: Lanes>(
     }
     let inv_det = L::splat(1.0) / det;
     let t = t_scaled * inv_det;
-    ok = ok & t.cmplt(L::splat(t_max));
+    ok = ok & t.cmplt(t_max);
 
     // Reject t that is not surely positive given the rounding above.
     let max3 = |a: L, b: L, c: L| a.abs().max(b.abs()).max(c.abs());
@@ -181,35 +238,18 @@ fn intersect_lanes<L: Lanes>(
     let delta_e =
         L::splat(2.0) * (L::splat(gamma(2)) * max_x * max_y + delta_y * max_x + delta_x * max_y);
     let max_e = max3(e0, e1, e2);
-    let delta_t = s.t_bound_factor
+    let delta_t = t_bound_factor
         * (L::splat(gamma(3)) * max_e * max_z + delta_e * max_z + delta_z * max_e)
         * inv_det.abs();
     ok = ok & t.cmpgt(delta_t);
 
-    let hits = L::bits(ok);
-    if hits == 0 {
-        return None;
-    }
-    // The nearest lane; the lowest of equals.
-    let t = t.to_array();
-    let mut lane = hits.trailing_zeros() as usize;
-    let mut rest = hits & (hits - 1);
-    while rest != 0 {
-        let l = rest.trailing_zeros() as usize;
-        rest &= rest - 1;
-        if t[l] < t[lane] {
-            lane = l;
-        }
-    }
-    let inv = inv_det.to_array()[lane];
-    let (e0, e1, e2) = (e0.to_array(), e1.to_array(), e2.to_array());
-    Some((
-        lane,
-        TriangleHit {
-            t: t[lane],
-            b: [e0[lane] * inv, e1[lane] * inv, e2[lane] * inv],
-        },
-    ))
+    let lanes = L::bits(ok);
+    (lanes != 0).then_some(LaneHits {
+        lanes,
+        t,
+        e: [e0, e1, e2],
+        inv_det,
+    })
 }
 
 #[cfg(test)]

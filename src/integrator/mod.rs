@@ -14,6 +14,7 @@ mod light_path;
 mod light_tracer;
 mod path;
 mod path_caustics;
+mod path_packet;
 mod path_stream;
 mod photon_map;
 mod sppm;

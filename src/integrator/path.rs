@@ -217,7 +217,7 @@ impl PathTracer {
     /// it after a Dirac bounce or with BSDF sampling alone, none when light
     /// sampling alone counts it, else MIS against the light's density
     /// (`light_pdf`, computed only then).
-    fn emission_weight(
+    pub(super) fn emission_weight(
         &self,
         specular: bool,
         bsdf_pdf: f32,

@@ -4,11 +4,12 @@
 //! bit.
 
 use super::path::Gather;
+use super::path_packet;
 use super::walk::{self, Flow, PathContext, Walk};
 use super::{camera_ray, PathCounters, PathTracer, PixelSample};
 use crate::drive::pixels::{one_at_a_time, PixelEstimator};
 use crate::drive::stream::{self, StreamEstimator, STREAM_ABOVE_BYTES};
-use crate::drive::{RenderJob, Streams, TileRect};
+use crate::drive::{Packets, RenderJob, Streams, TileRect};
 use crate::film::FilmTile;
 use crate::geometry::Ray;
 use crate::integrator::interface::FirstHit;
@@ -56,6 +57,10 @@ impl PixelEstimator for PathTracer {
         indices: impl Fn(u32, u32) -> std::ops::Range<u32>,
         shared: &(),
     ) -> FilmTile {
+        let packets = job.options.packets == Packets::Auto && path_packet::models(self, job.scene);
+        if packets {
+            return path_packet::render_tile(self, job, rect, pass_len, indices);
+        }
         let streams = match job.options.streams {
             Streams::Always => true,
             Streams::Never => false,
@@ -73,7 +78,7 @@ renders_by_pixels!(PathTracer);
 
 impl PathTracer {
     /// A camera sample's ray through pixel (`x`, `y`) and its wavelengths.
-    fn camera_sample(
+    pub(super) fn camera_sample(
         &self,
         scene: &Scene,
         (x, y): (u32, u32),

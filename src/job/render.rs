@@ -22,7 +22,8 @@ use crate::load::{self, Loaded, Overrides};
 use crate::memory::for_people;
 use crate::merge::{ATTR_ADAPTIVE, ATTR_REGION, ATTR_SAMPLES, ATTR_SCENE_HASH, ATTR_SEED};
 use crate::render::{
-    memory_estimate, render, PassHook, RenderOptions, RenderSettings, RenderStats, Stop, Streams,
+    memory_estimate, render, Packets, PassHook, RenderOptions, RenderSettings, RenderStats, Stop,
+    Streams,
 };
 
 pub struct RenderJob {
@@ -58,6 +59,8 @@ pub struct RenderJob {
     pub sampling: Option<Sampling>,
     /// Whether the path tracer's samples advance as a stream of paths.
     pub streams: Streams,
+    /// Whether the path tracer's packet core may render the scene.
+    pub packets: Packets,
 }
 
 /// How a render job ended (errors aside).
@@ -226,6 +229,7 @@ fn render_options(job: &RenderJob, settings: &RenderSettings) -> Result<RenderOp
     }
     options.adaptive = adaptive;
     options.streams = job.streams;
+    options.packets = job.packets;
     Ok(options)
 }
 

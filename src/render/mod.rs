@@ -10,7 +10,7 @@ pub use crate::drive::adaptive::{
     pilot_spp, progress as adaptive_progress, targets as adaptive_targets, uniform_instead,
 };
 pub use crate::drive::{
-    PassHook, ProgressCounts, RenderError, RenderOptions, RenderStats, Stop, Streams,
+    Packets, PassHook, ProgressCounts, RenderError, RenderOptions, RenderStats, Stop, Streams,
 };
 pub use memory::{memory_estimate, MemoryEstimate};
 

@@ -3,6 +3,7 @@
 //! rendered (integrator, film) is not part of it: `crate::load` returns
 //! those apart, so one scene renders under any settings.
 
+mod batches;
 mod geometry;
 pub mod mesh;
 
@@ -432,29 +433,6 @@ impl Scene {
         None
     }
 
-    /// `intersect` for every ray of `rays` (`hits[i]` answers `rays[i]`,
-    /// bit for bit as `intersect` would): the triangles' walks interleaved
-    /// as a stream (`Bvh::intersect_stream`), so that on a mesh that
-    /// outgrows the caches their waits for memory overlap.
-    pub fn intersect_stream(
-        &self,
-        rays: &[Ray],
-        triangles: &mut [Option<(u32, triangle::TriangleHit)>],
-        hits: &mut [Option<SurfaceHit>],
-    ) {
-        if !self.cutouts.is_empty() {
-            // Rays that pass cut-outs go on from there: one at a time.
-            for (hit, ray) in hits.iter_mut().zip(rays) {
-                *hit = self.intersect(ray);
-            }
-            return;
-        }
-        self.geometry.bvh.intersect_stream(rays, triangles);
-        for ((hit, ray), triangle) in hits.iter_mut().zip(rays).zip(triangles.iter()) {
-            *hit = self.surface_along(ray, *triangle);
-        }
-    }
-
     fn closest_surface(&self, ray: &Ray) -> Option<SurfaceHit> {
         self.surface_along(ray, self.geometry.bvh.intersect(ray))
     }
@@ -543,23 +521,6 @@ impl Scene {
             .vertices
             .map(|v| self.geometry.attributes.uvs[v as usize]);
         uv[0] * (1.0 - b[0] - b[1]) + uv[1] * b[0] + uv[2] * b[1]
-    }
-
-    /// `occluded` for every ray of `rays` (`blocked[i]` answers
-    /// `rays[i]`), the triangles' walks interleaved as in `intersect_stream`.
-    pub fn occluded_stream(&self, rays: &[Ray], blocked: &mut [bool]) {
-        if !self.cutouts.is_empty() {
-            for (b, ray) in blocked.iter_mut().zip(rays) {
-                *b = self.occluded(ray);
-            }
-            return;
-        }
-        self.geometry.bvh.occluded_stream(rays, blocked);
-        if !self.geometry.spheres.is_empty() {
-            for (b, ray) in blocked.iter_mut().zip(rays) {
-                *b = *b || self.geometry.spheres.occluded(ray);
-            }
-        }
     }
 
     pub fn occluded(&self, ray: &Ray) -> bool {

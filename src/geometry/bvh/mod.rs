@@ -113,6 +113,7 @@ impl Bvh {
 }
 
 mod build;
+mod packet;
 mod traverse;
 
 use build::{build_boxes, pack_leaves};

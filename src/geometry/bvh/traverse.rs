@@ -306,7 +306,7 @@ impl Bvh {
     /// The packets of the leaf whose first packet is `first` and which
     /// holds `count` triangles.
     #[inline(always)]
-    fn leaf_packets(&self, first: u32, count: u32) -> &[Triangle4] {
+    pub(super) fn leaf_packets(&self, first: u32, count: u32) -> &[Triangle4] {
         &self.packets[first as usize..][..count.div_ceil(4) as usize]
     }
 

@@ -1,0 +1,155 @@
+//! The path tracer's packet core (`integrator::path_packet`: a tile's
+//! samples advanced eight paths at a time, their rays walked through a
+//! small tree together) renders what one path at a time renders: block by
+//! block within 5σ on the Cornell Box and on a diffuse scene with every
+//! kind of light the core meets (area, point, environment, an emitting
+//! sphere) and spheres; the same image for any thread count; and only the
+//! scenes it models go to it.
+
+use crate::common::{assert_blocks_agree, repo_scene, scene};
+use prism::film::Film;
+use prism::integrator::Integrator;
+use prism::load::Loaded;
+use prism::render::{render, Packets, RenderOptions};
+
+fn film(loaded: &Loaded, packets: Packets, seed: u64, threads: usize) -> Film {
+    let options = RenderOptions {
+        threads: Some(threads),
+        seed,
+        packets,
+        ..loaded.settings.options()
+    };
+    let (film, stats) = render(&loaded.scene, &loaded.settings, &options).unwrap();
+    assert_eq!(stats.non_finite, 0);
+    film
+}
+
+fn packets_model(loaded: &Loaded) -> bool {
+    match &loaded.settings.integrator {
+        Integrator::Path(tracer) => tracer.models_in_packets(&loaded.scene),
+        _ => false,
+    }
+}
+
+/// Independent renders (different seeds) with and without packets agree
+/// block by block within 5σ of their per-pixel error bars.
+fn assert_agree(loaded: &Loaded, what: &str) {
+    assert!(
+        packets_model(loaded),
+        "{what}: the packet core should model it"
+    );
+    let packets = film(loaded, Packets::Auto, 1, 2);
+    let one_at_a_time = film(loaded, Packets::Never, 2, 2);
+    assert!(packets.total_samples() > 0);
+    assert_blocks_agree(&packets, &one_at_a_time, 5.0, what);
+}
+
+#[test]
+fn the_cornell_box_agrees_with_one_path_at_a_time() {
+    let loaded = repo_scene(
+        "scenes/cornell-box.toml",
+        "resolution = [48, 48]\nspp = 256",
+        "max_depth = 16",
+    );
+    assert_agree(&loaded, "Cornell Box");
+}
+
+const LIGHTS_AND_SPHERES: &str = r#"
+[camera]
+position = [0, 1.5, -5]
+look_at = [0, 0.5, 0]
+fov = 45
+
+[film]
+resolution = [48, 40]
+spp = 256
+
+[integrator]
+type = "path"
+max_depth = 8
+
+[materials.white]
+type = "diffuse"
+reflectance = 0.7
+
+[materials.red]
+type = "diffuse"
+reflectance = { rgb = [0.8, 0.2, 0.1] }
+
+[[shape]]
+type = "quad"
+vertices = [[-3, 0, -3], [-3, 0, 3], [3, 0, 3], [3, 0, -3]]
+material = "white"
+
+[[shape]]
+type = "quad"
+vertices = [[-3, 0, 2], [-3, 3, 2], [3, 3, 2], [3, 0, 2]]
+material = "red"
+
+[[shape]]
+type = "sphere"
+center = [0.6, 0.6, 0.3]
+radius = 0.6
+material = "white"
+
+[[shape]]
+type = "sphere"
+center = [-1.2, 1.6, 0.5]
+radius = 0.15
+emission = "D65"
+material = "white"
+
+[[shape]]
+type = "quad"
+vertices = [[-0.5, 2.9, -0.5], [0.5, 2.9, -0.5], [0.5, 2.9, 0.5], [-0.5, 2.9, 0.5]]
+emission = "A"
+material = "white"
+
+[[light]]
+type = "point"
+position = [1.5, 1.2, -1]
+intensity = 2
+
+[environment]
+radiance = 0.2
+"#;
+
+#[test]
+fn point_area_sphere_and_environment_lights_agree() {
+    let loaded = scene(LIGHTS_AND_SPHERES);
+    assert_agree(&loaded, "diffuse scene, four kinds of light");
+}
+
+#[test]
+fn packets_give_the_same_image_for_any_thread_count() {
+    let loaded = scene(LIGHTS_AND_SPHERES);
+    let (a, b) = (
+        film(&loaded, Packets::Auto, 3, 1),
+        film(&loaded, Packets::Auto, 3, 2),
+    );
+    for y in 0..a.height {
+        for x in 0..a.width {
+            let (p, q) = (a.sums(x, y), b.sums(x, y));
+            assert_eq!(p.xyz, q.xyz, "pixel ({x}, {y})");
+            assert_eq!((p.samples, p.rays), (q.samples, q.rays), "pixel ({x}, {y})");
+        }
+    }
+}
+
+#[test]
+fn only_scenes_the_core_models_go_to_it() {
+    let film = "resolution = [16, 16]\nspp = 1";
+    let cornell = |integrator: &str| repo_scene("scenes/cornell-box.toml", film, integrator);
+    assert!(packets_model(&cornell("max_depth = 16")));
+    // Splitting, glass, media and fluorescence take the one-path walk.
+    assert!(!packets_model(&cornell("split = 2")));
+    for glass_media_or_fluorescence in [
+        "scenes/glass-of-water.toml",
+        "scenes/haze.toml",
+        "scenes/fluorescence.toml",
+        "scenes/metals.toml",
+    ] {
+        let loaded = repo_scene(glass_media_or_fluorescence, film, "type = \"path\"");
+        assert!(!packets_model(&loaded), "{glass_media_or_fluorescence}");
+    }
+}
