@@ -24,7 +24,8 @@ use glam::Vec3;
 
 use super::{power_heuristic, russian_roulette, PathCounters, PathTracer, PixelSample, Strategy};
 use crate::drive::in_order::InOrder;
-use crate::drive::{RenderJob, TileRect};
+use crate::drive::stream::STREAM_ABOVE_BYTES;
+use crate::drive::{RenderJob, Streams, TileRect};
 use crate::film::FilmTile;
 use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin;
@@ -102,7 +103,15 @@ pub fn render_tile(
         .flat_map(|(x, y)| indices(x, y).map(move |i| (x, y, i)));
     let mut in_order = InOrder::default();
     let mut lanes: Vec<Lane> = Vec::with_capacity(LANES);
+    // A tree that outgrows the caches: the packet's walks interleaved as a
+    // stream's, so that their waits for memory overlap.
+    let streams = match job.options.streams {
+        Streams::Always => true,
+        Streams::Never => false,
+        Streams::Auto => scene.bvh().size_bytes() > STREAM_ABOVE_BYTES,
+    };
     let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); LANES];
+    let mut triangles = [None; LANES];
     let mut hits: [Option<SurfaceHit>; LANES] = [None; LANES];
     let mut blocked = [false; LANES];
     loop {
@@ -120,7 +129,11 @@ pub fn render_tile(
             lane.counters.rays += 1;
             *ray = lane.ray;
         }
-        scene.intersect_packet(&rays[..n], &mut hits[..n]);
+        if streams {
+            scene.intersect_stream(&rays[..n], &mut triangles[..n], &mut hits[..n]);
+        } else {
+            scene.intersect_packet(&rays[..n], &mut hits[..n]);
+        }
         for (lane, hit) in lanes.iter_mut().zip(&hits) {
             lane.goes_on = match hit {
                 Some(hit) => lane.scatter(tracer, scene, hit),
@@ -135,7 +148,11 @@ pub fn render_tile(
                 m += 1;
             }
         }
-        scene.occluded_packet(&rays[..m], &mut blocked[..m]);
+        if streams {
+            scene.occluded_stream(&rays[..m], &mut blocked[..m]);
+        } else {
+            scene.occluded_packet(&rays[..m], &mut blocked[..m]);
+        }
         let mut answers = blocked[..m].iter();
         for lane in &mut lanes {
             if lane.shadow.take().is_some() {

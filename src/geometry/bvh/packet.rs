@@ -5,7 +5,7 @@
 //! children it meets, a leaf at a time); in a tree that fits the
 //! first-level cache that bookkeeping, not memory, is its cost. Eight
 //! incoherent rays meet more boxes together than one does, so the packet
-//! pays only where the tree is small (`Bvh::prefers_packets`).
+//! pays only where the tree is a single node (`Bvh::prefers_packets`).
 //!
 //! Each lane does the single-ray test's operations in the same order
 //! (`triangle4::test_sheared`, the slab test's), so a ray finds the same
@@ -15,16 +15,15 @@
 use super::{Bvh, Ray};
 use crate::geometry::triangle::TriangleHit;
 
-/// Trees of at most this many bytes are walked by packets: the Cornell
-/// Box's (1.5 KiB, one node) and others that stay in the first-level cache.
-const PACKET_MAX_BYTES: usize = 16 << 10;
-
 impl Bvh {
     /// Whether up to eight rays are better walked together
-    /// (`intersect_packet`) than one at a time.
+    /// (`intersect_packet`) than one at a time: where the tree is a single
+    /// node (at most 64 triangles), which every ray visits anyway. Path
+    /// tracer's instructions, packets against single rays: the Cornell Box
+    /// (32 triangles) −7.5%, a cave of 36 triangles −1%; with 5 nodes (64
+    /// triangles) +5%, 8 nodes +12%, 9 nodes +18% (docs/performance.md).
     pub fn prefers_packets(&self) -> bool {
-        cfg!(all(target_arch = "x86_64", target_feature = "avx2"))
-            && self.size_bytes() <= PACKET_MAX_BYTES
+        cfg!(all(target_arch = "x86_64", target_feature = "avx2")) && self.nodes.len() == 1
     }
 
     /// `intersect` for up to eight rays (`hits[i]` answers `rays[i]`).
@@ -67,10 +66,9 @@ mod avx2 {
     use crate::geometry::triangle4::{test_sheared, LaneHits};
     use crate::geometry::{gamma, Ray};
 
-    /// Nodes waiting: a node pushes at most WIDTH children, and a small
-    /// tree is shallow (each level of a tree of PACKET_MAX_BYTES holds at
-    /// least one node).
-    const STACK_SIZE: usize = WIDTH * 64;
+    /// Nodes waiting: a visit takes one and leaves at most WIDTH, so
+    /// WIDTH − 1 more per level, as the single ray's walk bounds it.
+    const STACK_SIZE: usize = (WIDTH - 1) * 80 + 1;
 
     /// Eight rays, a lane each: what the slab and triangle tests take.
     pub struct RayPacket {
@@ -251,7 +249,8 @@ mod tests {
         ((*s >> 40) as f32) / (1u64 << 24) as f32
     }
 
-    /// Eight rays walked together find what each finds alone: the same
+    /// Eight rays walked together find what each finds alone (in a tree of
+    /// several nodes, though packets are only chosen for one): the same
     /// triangle and hit, bit for bit (or, at a shared edge, another
     /// triangle at the same distance), and the same occlusion. Rays start
     /// inside the triangles' cloud, aim at vertices and edges, end short,
@@ -267,7 +266,6 @@ mod tests {
             })
             .collect();
         let (bvh, _) = Bvh::build(&tris);
-        assert!(bvh.prefers_packets() || !cfg!(target_feature = "avx2"));
         let mut compared = 0;
         for round in 0..400 {
             let n = 1 + round % 8;
