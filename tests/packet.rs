@@ -1,10 +1,10 @@
 //! The path tracer's packet core (`integrator::path_packet`: a tile's
 //! samples advanced eight paths at a time, their rays walked through a
-//! small tree together) renders what one path at a time renders: block by
-//! block within 5σ on the Cornell Box and on a diffuse scene with every
-//! kind of light the core meets (area, point, environment, an emitting
-//! sphere) and spheres; the same image for any thread count; and only the
-//! scenes it models go to it.
+//! tree of one node together) renders what one path at a time renders:
+//! block by block within 5σ on the Cornell Box, the colorchecker and a
+//! diffuse scene with every kind of light the core meets (area, point,
+//! environment, an emitting sphere) and spheres; the same image for any
+//! thread count; and only the scenes it models go to it.
 
 use crate::common::{assert_blocks_agree, repo_scene, scene};
 use prism::film::Film;
@@ -52,6 +52,18 @@ fn the_cornell_box_agrees_with_one_path_at_a_time() {
         "max_depth = 16",
     );
     assert_agree(&loaded, "Cornell Box");
+}
+
+#[test]
+fn the_colorchecker_agrees_with_one_path_at_a_time() {
+    // The other shipped scene of diffuse surfaces alone (an emitting
+    // sphere around it, direct light only).
+    let loaded = repo_scene(
+        "scenes/colorchecker.toml",
+        "resolution = [60, 40]\nspp = 256",
+        "max_depth = 1",
+    );
+    assert_agree(&loaded, "colorchecker");
 }
 
 const LIGHTS_AND_SPHERES: &str = r#"
