@@ -1,6 +1,6 @@
 //! The path tracer's packet core (`integrator::path_packet`: a tile's
 //! samples advanced eight paths at a time, their rays walked through a
-//! tree of one node together) renders what one path at a time renders:
+//! small tree together) renders what one path at a time renders:
 //! block by block within 5σ on the Cornell Box, the colorchecker and a
 //! diffuse scene with every kind of light the core meets (area, point,
 //! environment, an emitting sphere) and spheres; the same image for any

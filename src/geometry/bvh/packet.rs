@@ -5,7 +5,8 @@
 //! children it meets, a leaf at a time); in a tree that fits the
 //! first-level cache that bookkeeping, not memory, is its cost. Eight
 //! incoherent rays meet more boxes together than one does, so the packet
-//! pays only where the tree is a single node (`Bvh::prefers_packets`).
+//! pays only where the tree is small (`Bvh::prefers_packets`). A leaf
+//! that only a few of the rays enter is tested ray by ray instead.
 //!
 //! Each lane does the single-ray test's operations in the same order
 //! (`triangle4::test_sheared`, the slab test's), so a ray finds the same
@@ -15,15 +16,18 @@
 use super::{Bvh, Ray};
 use crate::geometry::triangle::TriangleHit;
 
+/// The largest tree walked by packets of rays (`prefers_packets`).
+const MAX_PACKET_NODES: usize = 8;
+
 impl Bvh {
     /// Whether up to eight rays are better walked together
-    /// (`intersect_packet`) than one at a time: where the tree is a single
-    /// node (at most 64 triangles), which every ray visits anyway. Path
-    /// tracer's instructions, packets against single rays: the Cornell Box
-    /// (32 triangles) −7.5%, a cave of 36 triangles −1%; with 5 nodes (64
-    /// triangles) +5%, 8 nodes +12%, 9 nodes +18% (docs/performance.md).
+    /// (`intersect_packet`) than one at a time: in trees of at most eight
+    /// nodes. The path tracer's instructions, packets against single rays
+    /// (`tools/gen_cave.py`): the Cornell Box (one node) −11%, caves of 1,
+    /// 5 and 8 nodes −8%, −5%, −4%, of 9 nodes −1% and +1%.
     pub fn prefers_packets(&self) -> bool {
-        cfg!(all(target_arch = "x86_64", target_feature = "avx2")) && self.nodes.len() == 1
+        cfg!(all(target_arch = "x86_64", target_feature = "avx2"))
+            && self.nodes.len() <= MAX_PACKET_NODES
     }
 
     /// `intersect` for up to eight rays (`hits[i]` answers `rays[i]`).
@@ -32,7 +36,7 @@ impl Bvh {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         if rays.len() <= 8 && !self.nodes.is_empty() {
             let mut packet = avx2::RayPacket::new(rays);
-            self.walk_packet::<false>(&mut packet, |lane, hit| hits[lane] = Some(hit));
+            self.walk_packet::<false>(&mut packet, rays, |lane, hit| hits[lane] = Some(hit));
             return;
         }
         for (hit, ray) in hits.iter_mut().zip(rays) {
@@ -47,7 +51,7 @@ impl Bvh {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         if rays.len() <= 8 && !self.nodes.is_empty() {
             let mut packet = avx2::RayPacket::new(rays);
-            self.walk_packet::<true>(&mut packet, |lane, _| blocked[lane] = true);
+            self.walk_packet::<true>(&mut packet, rays, |lane, _| blocked[lane] = true);
             return;
         }
         for (b, ray) in blocked.iter_mut().zip(rays) {
@@ -58,8 +62,11 @@ impl Bvh {
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 mod avx2 {
+    use std::mem::MaybeUninit;
+
     use glam::Vec3;
 
+    use super::super::traverse::RayLanes;
     use super::super::{Bvh, WideNode, WIDTH};
     use crate::geometry::lanes::{F32x8, Lanes, Mask8};
     use crate::geometry::triangle::TriangleHit;
@@ -69,6 +76,17 @@ mod avx2 {
     /// Nodes waiting: a visit takes one and leaves at most WIDTH, so
     /// WIDTH − 1 more per level, as the single ray's walk bounds it.
     const STACK_SIZE: usize = (WIDTH - 1) * 80 + 1;
+
+    /// The packet's rays as single walks take them, for the lanes in `made`.
+    struct Alone {
+        rays: [MaybeUninit<RayLanes>; 8],
+        made: u32,
+    }
+
+    /// Leaves met by this many lanes or fewer are tested ray by ray: in
+    /// the Cornell Box 28% of the triangle tests were for one lane and 15%
+    /// for two, each a full eight-lane test.
+    const FEW_LANES: u32 = 3;
 
     /// Eight rays, a lane each: what the slab and triangle tests take.
     pub struct RayPacket {
@@ -182,17 +200,26 @@ mod avx2 {
     }
 
     impl Bvh {
-        /// Walks the packet's rays through the tree together; `found(lane,
-        /// hit)` hears of each closer hit of a lane (with `ANY_HIT`, of its
-        /// first hit, after which the lane stops).
+        /// Walks the packet's rays (`rays`, lane by lane) through the tree
+        /// together; `found(lane, hit)` hears of each closer hit of a lane
+        /// (with `ANY_HIT`, of its first hit, after which the lane stops).
         pub(in crate::geometry::bvh) fn walk_packet<const ANY_HIT: bool>(
             &self,
             packet: &mut RayPacket,
+            rays: &[Ray],
             mut found: impl FnMut(usize, (u32, TriangleHit)),
         ) {
+            // Each lane's ray as the single walk takes it, made when a leaf
+            // is first met by so few lanes that testing them one by one is
+            // cheaper (`FEW_LANES`); left uninitialised until then (zeroing
+            // 8 of them per walk cost more than the tests saved).
+            let mut alone = Alone {
+                rays: [const { MaybeUninit::uninit() }; 8],
+                made: 0,
+            };
             // Left uninitialised but for the root: entries below `top` are
             // always written before they are read.
-            let mut stack = [const { std::mem::MaybeUninit::<u32>::uninit() }; STACK_SIZE];
+            let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK_SIZE];
             stack[0].write(0);
             let mut top = 1;
             while top > 0 && packet.live != 0 {
@@ -204,33 +231,93 @@ mod avx2 {
                     if lanes == 0 {
                         continue;
                     }
-                    if node.count[i] == 0 {
-                        stack[top].write(node.child[i]);
+                    let (first, count) = (node.child[i], node.count[i]);
+                    if count == 0 {
+                        stack[top].write(first);
                         top += 1;
-                        continue;
-                    }
-                    let packets = self.leaf_packets(node.child[i], node.count[i]);
-                    for k in 0..node.count[i] as usize {
-                        let p = &packets[k / 4];
-                        let lanes = lanes & packet.live;
-                        let Some(hits) = packet.test(&p.triangle(k % 4), lanes) else {
-                            continue;
-                        };
-                        let mut rest = hits.lanes;
-                        while rest != 0 {
-                            let l = rest.trailing_zeros() as usize;
-                            rest &= rest - 1;
-                            found(l, (p.prim(k % 4), hits.hit(l)));
-                        }
-                        if ANY_HIT {
-                            packet.live &= !hits.lanes;
-                        } else {
-                            let closer = F32x8::mask(hits.lanes);
-                            packet.t_max = F32x8::select(closer, hits.t, packet.t_max);
-                        }
+                    } else if lanes.count_ones() <= FEW_LANES {
+                        self.test_leaf_alone::<ANY_HIT>(
+                            packet,
+                            rays,
+                            &mut alone,
+                            (first, count),
+                            lanes,
+                            &mut found,
+                        );
+                    } else {
+                        self.test_leaf_together::<ANY_HIT>(
+                            packet,
+                            (first, count),
+                            lanes,
+                            &mut found,
+                        );
                     }
                 }
             }
+        }
+
+        /// Tests the leaf's triangles against the rays of `lanes` at once.
+        #[inline(always)]
+        fn test_leaf_together<const ANY_HIT: bool>(
+            &self,
+            packet: &mut RayPacket,
+            (first, count): (u32, u32),
+            lanes: u32,
+            found: &mut impl FnMut(usize, (u32, TriangleHit)),
+        ) {
+            let packets = self.leaf_packets(first, count);
+            for k in 0..count as usize {
+                let p = &packets[k / 4];
+                let Some(hits) = packet.test(&p.triangle(k % 4), lanes & packet.live) else {
+                    continue;
+                };
+                let mut rest = hits.lanes;
+                while rest != 0 {
+                    let l = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    found(l, (p.prim(k % 4), hits.hit(l)));
+                }
+                if ANY_HIT {
+                    packet.live &= !hits.lanes;
+                } else {
+                    let closer = F32x8::mask(hits.lanes);
+                    packet.t_max = F32x8::select(closer, hits.t, packet.t_max);
+                }
+            }
+        }
+
+        /// Tests the leaf against each ray of `lanes` on its own, its
+        /// triangles four or eight at a time, as the single walk does.
+        #[inline(always)]
+        fn test_leaf_alone<const ANY_HIT: bool>(
+            &self,
+            packet: &mut RayPacket,
+            rays: &[Ray],
+            alone: &mut Alone,
+            leaf: (u32, u32),
+            lanes: u32,
+            found: &mut impl FnMut(usize, (u32, TriangleHit)),
+        ) {
+            let mut t_max = packet.t_max.to_array();
+            let mut rest = lanes;
+            while rest != 0 {
+                let l = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if alone.made & (1 << l) == 0 {
+                    alone.rays[l].write(RayLanes::new(&rays[l]));
+                    alone.made |= 1 << l;
+                }
+                // SAFETY: lane l's ray was written, as `made` records.
+                let ray = unsafe { alone.rays[l].assume_init_ref() };
+                if let Some((prim, hit)) = self.test_leaf(ray, leaf.0, leaf.1, t_max[l]) {
+                    found(l, (prim, hit));
+                    t_max[l] = hit.t;
+                    if ANY_HIT {
+                        packet.live &= !(1 << l);
+                    }
+                }
+            }
+            packet.t_max = F32x8::from_array(t_max);
         }
     }
 }

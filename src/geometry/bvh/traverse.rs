@@ -325,7 +325,7 @@ impl Bvh {
     /// The nearest hit within (0, t_max) among a leaf's `count`
     /// triangles, which start at packet `first`.
     #[inline(always)]
-    fn test_leaf(
+    pub(super) fn test_leaf(
         &self,
         ray: &RayLanes,
         first: u32,
@@ -358,7 +358,7 @@ impl Bvh {
 /// A ray's values as the tests take them, splatted across lanes: origin
 /// and inverse direction for the slab tests; the sheared ray for the
 /// triangle tests, four lanes wide and, where there is AVX2, eight.
-struct RayLanes {
+pub(super) struct RayLanes {
     origin: [Slab; 3],
     inv_dir: [Slab; 3],
     shear4: RayShear4,
@@ -368,7 +368,7 @@ struct RayLanes {
 
 impl RayLanes {
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
+    pub(super) fn new(ray: &Ray) -> Self {
         let shear = RayShear::new(ray);
         let inv = ray.dir.recip();
         RayLanes {
