@@ -13,7 +13,7 @@ use std::ops::Range;
 use super::in_order::InOrder;
 use super::job::TileRect;
 use super::pixels::PixelEstimator;
-use super::{PathCounters, PixelSample, RenderJob};
+use super::{PathCounters, PixelSample, RenderJob, Streams};
 use crate::film::FilmTile;
 use crate::geometry::triangle::TriangleHit;
 use crate::geometry::Ray;
@@ -31,6 +31,16 @@ pub const IN_FLIGHT: usize = 64;
 /// −20 to +5%, 21 MiB −9 to −12%, 41 MiB −5 to −16%, 116 MiB −17 to −32%
 /// (docs/performance.md).
 pub const STREAM_ABOVE_BYTES: usize = 16 << 20;
+
+/// Whether the job's rays are traced as streams: as `--stream` says, or
+/// (`auto`) where the tree is larger than `STREAM_ABOVE_BYTES`.
+pub fn wanted(job: &RenderJob) -> bool {
+    match job.options.streams {
+        Streams::Always => true,
+        Streams::Never => false,
+        Streams::Auto => job.scene.bvh().size_bytes() > STREAM_ABOVE_BYTES,
+    }
+}
 
 /// An integrator whose camera samples can advance as a stream: each
 /// sample a path that waits on the closest surface along one ray at a

@@ -24,14 +24,14 @@ use glam::Vec3;
 
 use super::{power_heuristic, russian_roulette, PathCounters, PathTracer, PixelSample, Strategy};
 use crate::drive::in_order::InOrder;
-use crate::drive::stream::STREAM_ABOVE_BYTES;
-use crate::drive::{RenderJob, Streams, TileRect};
+use crate::drive::stream;
+use crate::drive::{RenderJob, TileRect};
 use crate::film::FilmTile;
 use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::light::LightSource;
-use crate::material::{cosine_hemisphere, Material};
+use crate::material::{cosine_hemisphere, facing_frame, Material, ShadingGeometry};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -105,11 +105,7 @@ pub fn render_tile(
     let mut lanes: Vec<Lane> = Vec::with_capacity(LANES);
     // A tree that outgrows the caches: the packet's walks interleaved as a
     // stream's, so that their waits for memory overlap.
-    let streams = match job.options.streams {
-        Streams::Always => true,
-        Streams::Never => false,
-        Streams::Auto => scene.bvh().size_bytes() > STREAM_ABOVE_BYTES,
-    };
+    let streams = stream::wanted(job);
     let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); LANES];
     let mut triangles = [None; LANES];
     let mut hits: [Option<SurfaceHit>; LANES] = [None; LANES];
@@ -316,17 +312,12 @@ impl Diffuse {
         let Material::Diffuse { reflectance } = &scene.materials[hit.material as usize] else {
             unreachable!("the packet core renders scenes of diffuse surfaces alone (`models`)");
         };
-        let ng = if hit.ng.dot(wo) < 0.0 {
-            -hit.ng
-        } else {
-            hit.ng
+        let geometry = ShadingGeometry {
+            ng: hit.ng,
+            ns: hit.ns,
+            wo,
         };
-        let ns = if hit.ns.dot(ng) < 0.0 {
-            -hit.ns
-        } else {
-            hit.ns
-        };
-        let frame = Frame::from_normal(ns);
+        let (frame, ng) = facing_frame(&geometry);
         let r = reflectance.sample(hit.uv, wl);
         Diffuse {
             frame,
@@ -345,8 +336,9 @@ impl Diffuse {
         if !self.reflects(wi, wi_local) {
             return (SampledSpectrum::ZERO, 0.0);
         }
-        let pdf = wi_local.z.abs() * FRAC_1_PI;
-        (self.f * self.frame.n.dot(wi).abs(), pdf)
+        // |cos θ| is the local z (`Bsdf::cos_theta`'s n·wi, bit for bit).
+        let cos = wi_local.z.abs();
+        (self.f * cos, cos * FRAC_1_PI)
     }
 
     /// A cosine-weighted direction from the numbers `u`: the direction, f

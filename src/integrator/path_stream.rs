@@ -1,15 +1,16 @@
-//! How the path tracer's camera samples are taken: one at a time, or as a
-//! stream of paths whose rays are traced together (`drive::stream`) where
-//! the scene's tree outgrows the caches. Both give the same image, bit for
-//! bit.
+//! How the path tracer's camera samples are taken: as packets of paths
+//! where the scene needs only what the packet core models (`path_packet`,
+//! the same image in distribution), else one at a time, or as a stream of
+//! paths whose rays are traced together (`drive::stream`) where the
+//! scene's tree outgrows the caches (the same image, bit for bit).
 
 use super::path::Gather;
 use super::path_packet;
 use super::walk::{self, Flow, PathContext, Walk};
 use super::{camera_ray, PathCounters, PathTracer, PixelSample};
 use crate::drive::pixels::{one_at_a_time, PixelEstimator};
-use crate::drive::stream::{self, StreamEstimator, STREAM_ABOVE_BYTES};
-use crate::drive::{Packets, RenderJob, Streams, TileRect};
+use crate::drive::stream::{self, StreamEstimator};
+use crate::drive::{Packets, RenderJob, TileRect};
 use crate::film::FilmTile;
 use crate::geometry::Ray;
 use crate::integrator::interface::FirstHit;
@@ -61,12 +62,7 @@ impl PixelEstimator for PathTracer {
         if packets {
             return path_packet::render_tile(self, job, rect, pass_len, indices);
         }
-        let streams = match job.options.streams {
-            Streams::Always => true,
-            Streams::Never => false,
-            Streams::Auto => job.scene.bvh().size_bytes() > STREAM_ABOVE_BYTES,
-        };
-        if streams {
+        if stream::wanted(job) {
             stream::render_tile(job, rect, pass_len, indices, self)
         } else {
             one_at_a_time(self, job, rect, pass_len, indices, shared)
