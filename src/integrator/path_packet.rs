@@ -30,10 +30,11 @@ use crate::film::FilmTile;
 use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
-use crate::light::LightSource;
+use crate::light::{Light, LightSource};
 use crate::material::{cosine_hemisphere, facing_frame, Material, ShadingGeometry};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
+use crate::spectrum::memo::SpectrumMemo;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
 /// Paths in a packet.
@@ -65,6 +66,8 @@ struct Lane {
     sample: (u32, u32, u32),
     sampler: Sampler,
     wl: SampledWavelengths,
+    /// The spectra met so far at `wl` (reflectances, the lamps' emission).
+    spectra: SpectrumMemo,
     /// The ray whose closest surface the path waits on.
     ray: Ray,
     /// Path value over path density (no media: no spectral-MIS ratios).
@@ -191,6 +194,7 @@ impl Lane {
             sample: (x, y, index),
             sampler,
             wl,
+            spectra: SpectrumMemo::default(),
             ray,
             beta: SampledSpectrum::ONE,
             l: SampledSpectrum::ZERO,
@@ -214,7 +218,7 @@ impl Lane {
             return false;
         }
         self.depth += 1;
-        let surface = Diffuse::at(scene, hit, -self.ray.dir, &self.wl);
+        let surface = Diffuse::at(scene, hit, -self.ray.dir, &self.wl, &mut self.spectra);
         let u_light = self.sampler.next_4d();
         if tracer.strategy != Strategy::Bsdf {
             self.sample_light(tracer, scene, hit, &surface, u_light);
@@ -233,7 +237,15 @@ impl Lane {
     /// weighed against the light sample that could have found it.
     fn add_emission(&mut self, tracer: &PathTracer, scene: &Scene, hit: &SurfaceHit, i: usize) {
         let light = scene.lights.get(i);
-        let le = light.l(hit.uv, -self.ray.dir, &self.wl);
+        let le = match light {
+            Light::Area(area) => {
+                let spectra = &mut self.spectra;
+                area.l_by(hit.uv, -self.ray.dir, &self.wl, |s| {
+                    spectra.sample(s, &self.wl)
+                })
+            }
+            _ => light.l(hit.uv, -self.ray.dir, &self.wl),
+        };
         if le != SampledSpectrum::ZERO {
             let weight = tracer.emission_weight(self.specular, self.prev_pdf, || {
                 let pdf = light.pdf_li(self.ray.origin, self.ray.dir, Some(hit.p));
@@ -257,7 +269,14 @@ impl Lane {
             return;
         };
         let light = scene.lights.get(light);
-        let Some(ls) = light.sample_li(hit.p, (p0, p1), &self.wl) else {
+        let sampled = match light {
+            Light::Area(area) => {
+                let spectra = &mut self.spectra;
+                area.sample_li_by(hit.p, (p0, p1), &self.wl, |s| spectra.sample(s, &self.wl))
+            }
+            _ => light.sample_li(hit.p, (p0, p1), &self.wl),
+        };
+        let Some(ls) = sampled else {
             return;
         };
         let (f, scattering_pdf) = surface.eval(ls.wi);
@@ -308,7 +327,13 @@ struct Diffuse {
 
 impl Diffuse {
     #[inline(always)]
-    fn at(scene: &Scene, hit: &SurfaceHit, wo: Vec3, wl: &SampledWavelengths) -> Diffuse {
+    fn at(
+        scene: &Scene,
+        hit: &SurfaceHit,
+        wo: Vec3,
+        wl: &SampledWavelengths,
+        spectra: &mut SpectrumMemo,
+    ) -> Diffuse {
         let Material::Diffuse { reflectance } = &scene.materials[hit.material as usize] else {
             unreachable!("the packet core renders scenes of diffuse surfaces alone (`models`)");
         };
@@ -318,7 +343,7 @@ impl Diffuse {
             wo,
         };
         let (frame, ng) = facing_frame(&geometry);
-        let r = reflectance.sample(hit.uv, wl);
+        let r = reflectance.sample_by(hit.uv, wl, |s| spectra.sample(s, wl));
         Diffuse {
             frame,
             ng,

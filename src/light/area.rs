@@ -69,12 +69,18 @@ impl AreaLight {
     /// there finds on average, the emission times the chance the surface is
     /// present (a ray that finds it absent passes and sees no emission).
     #[inline]
-    fn sampled_l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+    fn sampled_l(
+        &self,
+        uv: Vec2,
+        w: Vec3,
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> SampledSpectrum {
         let share = self.cutout.as_ref().map_or(1.0, |c| c.coverage(uv));
         if share == 0.0 {
             return SampledSpectrum::ZERO;
         }
-        self.l(uv, w, wl) * share
+        self.l_by(uv, w, wl, sample) * share
     }
 
     pub fn emitter(&self) -> &Emitter {
@@ -100,10 +106,23 @@ impl AreaLight {
     /// (unit, pointing away from the light).
     #[inline]
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
+        self.l_by(uv, w, wl, |s| s.sample(wl))
+    }
+
+    /// `l`, the emitted spectrum at `wl` told by `sample` (a caller that
+    /// remembers spectra, `SpectrumMemo`).
+    #[inline]
+    pub fn l_by(
+        &self,
+        uv: Vec2,
+        w: Vec3,
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> SampledSpectrum {
         if !self.two_sided && self.n.dot(w) <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        self.emitter.radiance(uv, wl)
+        self.emitter.radiance_by(uv, wl, sample)
     }
 
     /// A uniformly distributed point on the triangle.
@@ -134,6 +153,18 @@ impl AreaLight {
         u: (f32, f32),
         wl: &SampledWavelengths,
     ) -> Option<LightLiSample> {
+        self.sample_li_by(p_ref, u, wl, |s| s.sample(wl))
+    }
+
+    /// `sample_li`, the emitted spectrum at `wl` told by `sample`.
+    #[inline]
+    pub fn sample_li_by(
+        &self,
+        p_ref: Vec3,
+        u: (f32, f32),
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> Option<LightLiSample> {
         let lp = self.sample_point(u);
         let to_light = lp.p - p_ref;
         let dist2 = to_light.length_squared();
@@ -141,7 +172,7 @@ impl AreaLight {
             return None;
         }
         let wi = to_light / dist2.sqrt();
-        let li = self.sampled_l(lp.uv, -wi, wl);
+        let li = self.sampled_l(lp.uv, -wi, wl, sample);
         let cos_light = lp.n.dot(wi).abs();
         if li == SampledSpectrum::ZERO || cos_light == 0.0 {
             return None;
@@ -177,7 +208,7 @@ impl AreaLight {
     ) -> Option<LightLeSample> {
         let lp = self.sample_point(u_pos);
         let (dir, n) = cosine_emission(self.n, self.two_sided, u_dir);
-        let le = self.sampled_l(lp.uv, dir, wl);
+        let le = self.sampled_l(lp.uv, dir, wl, |s| s.sample(wl));
         let (pdf_pos, pdf_dir) = self.pdf_le(dir);
         if le == SampledSpectrum::ZERO || pdf_dir == 0.0 {
             return None;

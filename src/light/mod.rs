@@ -69,7 +69,19 @@ impl Emitter {
     /// Radiance at texture coordinates `uv`.
     #[inline]
     pub fn radiance(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
-        let le = self.spectrum.sample(wl);
+        self.radiance_by(uv, wl, |s| s.sample(wl))
+    }
+
+    /// `radiance`, its spectrum at `wl` told by `sample` (a caller that
+    /// remembers spectra, `SpectrumMemo`).
+    #[inline]
+    pub fn radiance_by(
+        &self,
+        uv: Vec2,
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> SampledSpectrum {
+        let le = sample(&self.spectrum);
         match &self.texture {
             Some(t) => le * t.spectrum(uv, wl),
             None => le,

@@ -45,7 +45,19 @@ pub struct Reflectance {
 
 impl Reflectance {
     pub fn sample(&self, uv: Vec2, wl: &SampledWavelengths) -> SampledSpectrum {
-        let f = self.factor.sample(wl);
+        self.sample_by(uv, wl, |s| s.sample(wl))
+    }
+
+    /// `sample`, the factor's spectrum at `wl` told by `sample` (a caller
+    /// that remembers spectra, `SpectrumMemo`).
+    #[inline]
+    pub fn sample_by(
+        &self,
+        uv: Vec2,
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> SampledSpectrum {
+        let f = sample(&self.factor);
         match &self.texture {
             Some(t) => f * t.spectrum(uv, wl),
             None => f,

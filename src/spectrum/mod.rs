@@ -5,6 +5,7 @@ pub mod cct;
 pub mod cie;
 pub mod csv;
 pub mod formats;
+pub mod memo;
 pub mod rgb2spec;
 mod spectra;
 mod wavelengths;
