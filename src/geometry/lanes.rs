@@ -152,6 +152,43 @@ mod avx {
         pub fn select(mask: Mask8, a: F32x8, b: F32x8) -> F32x8 {
             unsafe { F32x8(_mm256_blendv_ps(b.0, a.0, mask.0)) }
         }
+
+        /// Rows become columns: lane j of result i is lane i of `rows[j]`
+        /// (eight values of eight records into a lane per record).
+        #[inline(always)]
+        pub fn transpose(rows: [F32x8; 8]) -> [F32x8; 8] {
+            let r = rows.map(|r| r.0);
+            unsafe {
+                // Pairs of rows interleaved, then quads, then the halves.
+                let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+                let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+                let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+                let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+                let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+                let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+                let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+                let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+                let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+                let u1 = _mm256_shuffle_ps::<0xee>(t0, t2);
+                let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+                let u3 = _mm256_shuffle_ps::<0xee>(t1, t3);
+                let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+                let u5 = _mm256_shuffle_ps::<0xee>(t4, t6);
+                let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+                let u7 = _mm256_shuffle_ps::<0xee>(t5, t7);
+                [
+                    _mm256_permute2f128_ps::<0x20>(u0, u4),
+                    _mm256_permute2f128_ps::<0x20>(u1, u5),
+                    _mm256_permute2f128_ps::<0x20>(u2, u6),
+                    _mm256_permute2f128_ps::<0x20>(u3, u7),
+                    _mm256_permute2f128_ps::<0x31>(u0, u4),
+                    _mm256_permute2f128_ps::<0x31>(u1, u5),
+                    _mm256_permute2f128_ps::<0x31>(u2, u6),
+                    _mm256_permute2f128_ps::<0x31>(u3, u7),
+                ]
+                .map(F32x8)
+            }
+        }
     }
 
     macro_rules! binary {
@@ -342,5 +379,16 @@ mod tests {
         let halves =
             F32x8::from_halves(Vec4::new(1.0, 2.0, 3.0, 4.0), Vec4::new(5.0, 6.0, 7.0, 8.0));
         assert_eq!(halves.to_array(), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+    }
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2", test))]
+#[test]
+fn eight_by_eight_transposes() {
+    let rows: [F32x8; 8] =
+        std::array::from_fn(|j| F32x8::from_array(std::array::from_fn(|i| (10 * j + i) as f32)));
+    for (i, column) in F32x8::transpose(rows).iter().enumerate() {
+        let want: [f32; 8] = std::array::from_fn(|j| (10 * j + i) as f32);
+        assert_eq!(column.to_array(), want, "lane {i} of every row");
     }
 }

@@ -109,27 +109,30 @@ mod avx2 {
     impl RayPacket {
         pub fn new(rays: &[Ray]) -> Self {
             debug_assert!(rays.len() <= 8);
-            // The rays as structure of arrays; lanes without a ray keep a
-            // harmless one (+z from the origin) and stay out of `live`.
-            let mut values = [[0f32; 8]; 8];
-            values[5] = [1.0; 8];
-            let mut live = 0;
-            for (l, ray) in rays.iter().enumerate() {
-                // As `Bvh::may_meet`: a ray that is not finite meets nothing.
-                if !(ray.origin.is_finite() && ray.dir.is_finite()) {
-                    continue;
+            // A row a ray, transposed into a lane a ray. Lanes without a
+            // ray, or with one that is not finite (which, as
+            // `Bvh::may_meet` says, meets nothing), hold a harmless ray (+z
+            // from the origin) and stay out of `live`.
+            let harmless = F32x8::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+            let rows = std::array::from_fn(|l| match rays.get(l) {
+                Some(ray) => {
+                    let (o, d) = (ray.origin, ray.dir);
+                    let free = if ray.in_free_space { 0.0 } else { 3.0 };
+                    F32x8::from_array([o.x, o.y, o.z, d.x, d.y, d.z, ray.t_max, free])
                 }
-                live |= 1 << l;
-                let free = if ray.in_free_space { 0.0 } else { 3.0 };
-                let (o, d) = (ray.origin, ray.dir);
-                for (axis, v) in [o.x, o.y, o.z, d.x, d.y, d.z, ray.t_max, free]
-                    .into_iter()
-                    .enumerate()
-                {
-                    values[axis][l] = v;
-                }
-            }
-            let [ox, oy, oz, dx, dy, dz, t_max, t_bound_factor] = values.map(F32x8::from_array);
+                None => harmless,
+            });
+            let [ox, oy, oz, dx, dy, dz, t_max, t_bound_factor] = F32x8::transpose(rows);
+            // x − x is 0 for finite x, NaN for infinities and NaN.
+            let zero = F32x8::splat(0.0);
+            let is_finite = |v: F32x8| (v - v).cmpeq(zero);
+            let finite = [oy, oz, dx, dy, dz]
+                .into_iter()
+                .fold(is_finite(ox), |all, v| all & is_finite(v));
+            let live = F32x8::bits(finite) & ((1u32 << rays.len()) - 1);
+            let keep = |v: F32x8, otherwise: f32| F32x8::select(finite, v, F32x8::splat(otherwise));
+            let [ox, oy, oz, dx, dy] = [ox, oy, oz, dx, dy].map(|v| keep(v, 0.0));
+            let dz = keep(dz, 1.0);
             // `RayShear::new` lane by lane: the largest axis of the
             // direction becomes z (ties as there), the others are sheared.
             let (ax, ay, az) = (dx.abs(), dy.abs(), dz.abs());
