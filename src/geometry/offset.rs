@@ -17,10 +17,48 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let po = p + offset;
     // One float further in each direction the offset moves: rounding in
     // `p + offset` may have lost part of it.
+    step_each_towards(po, offset)
+}
+
+/// `step_towards` for each component, the three at once in SSE2 (one
+/// call of the scalar version each was 3% of a diffuse scene's
+/// instructions: three origins a bounce).
+#[inline]
+fn step_each_towards(x: Vec3, dir: Vec3) -> Vec3 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86-64; only registers are touched.
+        unsafe {
+            let (xs, ds) = (
+                _mm_setr_ps(x.x, x.y, x.z, 0.0),
+                _mm_setr_ps(dir.x, dir.y, dir.z, 0.0),
+            );
+            let (xb, db) = (_mm_castps_si128(xs), _mm_castps_si128(ds));
+            // +1 where the signs agree (the magnitude grows), −1 elsewhere.
+            let differ = _mm_srai_epi32::<31>(_mm_xor_si128(xb, db));
+            let step = _mm_or_si128(_mm_slli_epi32::<1>(differ), _mm_set1_epi32(1));
+            let stepped = _mm_add_epi32(xb, step);
+            // From ±0: the smallest subnormal with dir's sign.
+            let sign = _mm_and_si128(db, _mm_set1_epi32(i32::MIN));
+            let tiny = _mm_or_si128(sign, _mm_set1_epi32(1));
+            let at_zero = _mm_castps_si128(_mm_cmpeq_ps(xs, _mm_setzero_ps()));
+            let stepped = _mm_or_si128(
+                _mm_and_si128(at_zero, tiny),
+                _mm_andnot_si128(at_zero, stepped),
+            );
+            // No step where dir is zero.
+            let still = _mm_castps_si128(_mm_cmpeq_ps(ds, _mm_setzero_ps()));
+            let out = _mm_or_si128(_mm_and_si128(still, xb), _mm_andnot_si128(still, stepped));
+            let [a, b, c, _] = std::mem::transmute::<__m128i, [f32; 4]>(out);
+            Vec3::new(a, b, c)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
     Vec3::new(
-        step_towards(po.x, offset.x),
-        step_towards(po.y, offset.y),
-        step_towards(po.z, offset.z),
+        step_towards(x.x, dir.x),
+        step_towards(x.y, dir.y),
+        step_towards(x.z, dir.z),
     )
 }
 
@@ -29,6 +67,7 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// offsets vary from ray to ray, and branching on them mispredicted often
 /// enough to make this function 5% of a profile. Finite `x` only (a hit
 /// point is finite).
+#[cfg(any(test, not(target_arch = "x86_64")))]
 #[inline]
 fn step_towards(x: f32, dir: f32) -> f32 {
     let bits = x.to_bits();
@@ -96,6 +135,32 @@ mod tests {
                 "{v:e} down"
             );
             assert_eq!(step_towards(v, 0.0).to_bits(), v.to_bits());
+        }
+    }
+
+    /// The three-at-once step is the scalar one's, bit for bit.
+    #[test]
+    fn components_step_as_one_does() {
+        let mut x = 0x9e37_79b9u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            match x % 7 {
+                0 => 0.0,
+                1 => -0.0,
+                2 => f32::from_bits(x % 5),
+                _ => f32::from_bits(x & 0xbfff_ffff),
+            }
+        };
+        for _ in 0..20_000 {
+            let (p, d) = (
+                Vec3::new(next(), next(), next()),
+                Vec3::new(next(), next(), next()),
+            );
+            let want = [0, 1, 2].map(|i| step_towards(p[i], d[i]).to_bits());
+            let got = step_each_towards(p, d).to_array().map(f32::to_bits);
+            assert_eq!(got, want, "{p:?} towards {d:?}");
         }
     }
 
