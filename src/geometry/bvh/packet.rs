@@ -123,9 +123,9 @@ mod avx2 {
                 None => harmless,
             });
             let [ox, oy, oz, dx, dy, dz, t_max, t_bound_factor] = F32x8::transpose(rows);
-            // x − x is 0 for finite x, NaN for infinities and NaN.
+            // 0·x is ±0 for finite x, NaN for infinities and NaN.
             let zero = F32x8::splat(0.0);
-            let is_finite = |v: F32x8| (v - v).cmpeq(zero);
+            let is_finite = |v: F32x8| (v * zero).cmpeq(zero);
             let finite = [oy, oz, dx, dy, dz]
                 .into_iter()
                 .fold(is_finite(ox), |all, v| all & is_finite(v));
