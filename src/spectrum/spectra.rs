@@ -264,7 +264,7 @@ pub fn planck(lambda_nm: f32, kelvin: f32) -> f32 {
 /// conversion (glam's `as_ivec4` converts lane by lane, saturating, which
 /// was 1.5% of a Cornell Box's instructions).
 #[inline(always)]
-fn truncate(v: glam::Vec4) -> glam::IVec4 {
+pub(super) fn truncate(v: glam::Vec4) -> glam::IVec4 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{__m128i, _mm_cvttps_epi32};

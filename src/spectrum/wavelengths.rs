@@ -170,10 +170,24 @@ impl WavelengthDistribution {
         (q0 + (x - k as f32) * (q1 - q0), self.density[k])
     }
 
-    /// Four wavelengths: the hero for `u` and three stratified rotations of it.
+    /// Four wavelengths: the hero for `u` and three stratified rotations of it
+    /// (`SampledWavelengths::rotations` with `sample_one`, the four in SIMD
+    /// but for the table reads; the same arithmetic lane by lane).
     #[inline]
     pub fn sample(&self, u: f32) -> SampledWavelengths {
-        SampledWavelengths::rotations(u, |up| self.sample_one(up))
+        let up = Vec4::splat(u) + Vec4::new(0.0, 0.25, 0.5, 0.75);
+        let up = Vec4::select(up.cmpge(Vec4::ONE), up - Vec4::ONE, up);
+        let x = up * SEGMENTS as f32;
+        // x ≥ 0: truncation is the floor.
+        let k = super::spectra::truncate(x).min(glam::IVec4::splat(SEGMENTS as i32 - 1));
+        let t = x - k.as_vec4();
+        let k = k.to_array().map(|k| k as usize);
+        let q0 = Vec4::from_array(k.map(|k| self.quantiles[k]));
+        let q1 = Vec4::from_array(k.map(|k| self.quantiles[k + 1]));
+        SampledWavelengths {
+            lambda: q0 + t * (q1 - q0),
+            pdf: Vec4::from_array(k.map(|k| self.density[k])),
+        }
     }
 
     /// Density per nm at `lambda`.
