@@ -35,22 +35,14 @@ impl SampledWavelengths {
         })
     }
 
-    /// The hero wavelength at `u` and its three stratified rotations (u +
-    /// 1/4, 1/2, 3/4, wrapped), each drawn by `draw(u)` = (λ, density).
+    /// The hero wavelength at `u` and its three stratified rotations
+    /// (`rotated`), each drawn by `draw(u)` = (λ, density).
     #[inline]
     fn rotations(u: f32, draw: impl Fn(f32) -> (f32, f32)) -> Self {
-        let mut lambda = [0.0; N_WAVELENGTHS];
-        let mut pdf = [0.0; N_WAVELENGTHS];
-        for i in 0..N_WAVELENGTHS {
-            let mut up = u + i as f32 / N_WAVELENGTHS as f32;
-            if up >= 1.0 {
-                up -= 1.0;
-            }
-            (lambda[i], pdf[i]) = draw(up);
-        }
+        let drawn = rotated(u).to_array().map(draw);
         Self {
-            lambda: Vec4::from_array(lambda),
-            pdf: Vec4::from_array(pdf),
+            lambda: Vec4::from_array(drawn.map(|(lambda, _)| lambda)),
+            pdf: Vec4::from_array(drawn.map(|(_, pdf)| pdf)),
         }
     }
 
@@ -175,9 +167,7 @@ impl WavelengthDistribution {
     /// but for the table reads; the same arithmetic lane by lane).
     #[inline]
     pub fn sample(&self, u: f32) -> SampledWavelengths {
-        let up = Vec4::splat(u) + Vec4::new(0.0, 0.25, 0.5, 0.75);
-        let up = Vec4::select(up.cmpge(Vec4::ONE), up - Vec4::ONE, up);
-        let x = up * SEGMENTS as f32;
+        let x = rotated(u) * SEGMENTS as f32;
         // x ≥ 0: truncation is the floor.
         let k = super::spectra::truncate(x).min(glam::IVec4::splat(SEGMENTS as i32 - 1));
         let t = x - k.as_vec4();
@@ -200,6 +190,14 @@ impl WavelengthDistribution {
             k => self.density[k - 1],
         }
     }
+}
+
+/// `u` and its stratified rotations: u + 0, 1/4, 1/2, 3/4, each wrapped
+/// into [0, 1).
+#[inline]
+fn rotated(u: f32) -> Vec4 {
+    let up = Vec4::splat(u) + Vec4::new(0.0, 0.25, 0.5, 0.75);
+    Vec4::select(up.cmpge(Vec4::ONE), up - Vec4::ONE, up)
 }
 
 /// Inverse CDF of the visible-wavelength density on [360, 830] nm.
