@@ -225,9 +225,10 @@ material = "glass"
 #[test]
 fn glass_looked_ahead_at_agrees_with_one_lobe_drawn() {
     // Smooth glass under a lamp and a sky (lobes that escape count the
-    // sky, lobes that meet the lamp its emission), dispersive glass, and
-    // glass inside glass (lobes inside an object are not traced ahead),
-    // for the path tracer and with caustics from photons.
+    // sky, lobes that meet the lamp its emission), dispersive glass, glass
+    // inside glass (lobes inside an object are not traced ahead), and
+    // smooth glass seen through frosted glass, for the path tracer and
+    // with caustics from photons.
     let sky = "[environment]\nradiance = 0.4\n";
     let smooth = GLASS_BALL_UNDER_A_LAMP;
     let dispersive = smooth.replace("ior = 1.5", "ior = \"N-SF11\"");
@@ -235,11 +236,18 @@ fn glass_looked_ahead_at_agrees_with_one_lobe_drawn() {
         "{smooth}[materials.core]\ntype = \"dielectric\"\nior = 1.9\npriority = 2\n\
          [[shape]]\ntype = \"sphere\"\ncenter = [0.3, 1.2, 0]\nradius = 0.5\nmaterial = \"core\"\n"
     );
+    // Seen through frosted glass first: the smooth ball behind it is
+    // looked ahead at too (a path past a surface without a diffuse lobe).
+    let frosted = format!(
+        "{smooth}[materials.frosted]\ntype = \"dielectric\"\nior = 1.5\nroughness = 0.3\n\
+         [[shape]]\ntype = \"sphere\"\ncenter = [0.2, 1.3, -2.2]\nradius = 0.6\nmaterial = \"frosted\"\n"
+    );
     assert!(dispersive.contains("N-SF11"));
     for (text, glass) in [
         (format!("{smooth}{sky}"), "smooth"),
         (format!("{dispersive}{sky}"), "dispersive"),
         (nested, "nested"),
+        (format!("{frosted}{sky}"), "frosted then smooth"),
     ] {
         for kind in ["path", "path_caustics"] {
             let what = format!("{kind}, {glass} glass, looked ahead at or not");

@@ -346,9 +346,10 @@ pub(super) struct Gather<'t, 's> {
     pub(super) defers_shadows: bool,
     pub(super) shadow: Option<Ray>,
     pub(super) unblocked: SampledSpectrum,
-    /// Every surface met so far is a Dirac one (mirrors, smooth glass):
-    /// what the path finds is seen as in a mirror, and looking ahead pays.
-    dirac_only: bool,
+    /// No surface met so far has a diffuse lobe (mirrors, glass and
+    /// metal, smooth or rough): what the path finds is bright light seen
+    /// as in a mirror, and looking ahead pays.
+    no_diffuse: bool,
     /// The emission of the surface the path arrives at next was counted
     /// when the path looked ahead to it (`look_ahead`).
     counted_emission: bool,
@@ -375,7 +376,7 @@ impl<'t, 's> Gather<'t, 's> {
             defers_shadows: false,
             shadow: None,
             unblocked: SampledSpectrum::ZERO,
-            dirac_only: true,
+            no_diffuse: true,
             counted_emission: false,
         }
     }
@@ -458,7 +459,7 @@ impl Visitor for Gather<'_, '_> {
         match event.at {
             Scatterer::Medium { .. } => {
                 (self.met_diffuse, self.in_caustic) = (false, false);
-                self.dirac_only = false;
+                self.no_diffuse = false;
                 self.splits_glass = false;
                 self.l += tracer.direct(ctx, walk, event, None);
                 Flow::Go
@@ -480,8 +481,8 @@ impl Visitor for Gather<'_, '_> {
                     }
                 }
                 self.caustics_at(ctx, walk, hit, event.wo, bsdf);
-                if self.dirac_only {
-                    self.dirac_only = bsdf.is_specular();
+                if self.no_diffuse {
+                    self.no_diffuse = !bsdf.flags().contains(BsdfFlags::DIFFUSE);
                 }
                 let by_lobe = std::mem::take(&mut self.splits_glass) && bsdf.has_two_lobes();
                 let by_split = self.split > 1 && !bsdf.is_specular();

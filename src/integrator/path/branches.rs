@@ -35,7 +35,7 @@ impl<'t, 's> Gather<'t, 's> {
             prev_bsdf_pdf: self.prev_bsdf_pdf,
             caustics: self.caustics,
             met_diffuse: self.met_diffuse,
-            dirac_only: self.dirac_only,
+            no_diffuse: self.no_diffuse,
             in_caustic: self.in_caustic,
             disperses: self.disperses,
             splits_glass: self.splits_glass,

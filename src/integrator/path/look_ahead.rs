@@ -16,12 +16,14 @@ use crate::material::Bsdf;
 impl Gather<'_, '_> {
     /// Whether the path looks ahead from a surface with `bsdf`: smooth
     /// glass, past the first surface (which `split_glass` splits), met
-    /// through Dirac surfaces alone (past a diffuse one the light is dim
-    /// or the photons' caustics), where no medium scatters (a ray traced
-    /// ahead would draw no free flight).
+    /// through surfaces without a diffuse lobe alone (past a diffuse one
+    /// the light is dim or the photons' caustics; past rough ice or
+    /// frosted glass a lamp seen through smooth glass is still bright),
+    /// where no medium scatters (a ray traced ahead would draw no free
+    /// flight).
     pub(super) fn looks_ahead(&self, ctx: &PathContext, bsdf: &Bsdf) -> bool {
-        // `dirac_only` first: it is false on most surfaces of most paths.
-        self.dirac_only
+        // `no_diffuse` first: it is false on most surfaces of most paths.
+        self.no_diffuse
             && self.tracer.look_ahead
             && bsdf.is_specular()
             && bsdf.has_two_lobes()
