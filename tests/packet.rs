@@ -1,9 +1,10 @@
 //! The path tracer's packet core (`integrator::path_packet`: a tile's
 //! samples advanced eight paths at a time, their rays walked through a
 //! small tree together) renders what one path at a time renders:
-//! block by block within 5σ on the Cornell Box, the colorchecker and a
+//! block by block within 5σ on the Cornell Box, the colorchecker, a
 //! diffuse scene with every kind of light the core meets (area, point,
-//! environment, an emitting sphere) and spheres; the same image for any
+//! environment, an emitting sphere) and spheres, the metals (mirrors and
+//! rough) and glTF's metallic-roughness layers; the same image for any
 //! thread count; and only the scenes it models go to it.
 
 use crate::common::{assert_blocks_agree, repo_scene, scene};
@@ -149,17 +150,47 @@ fn packets_give_the_same_image_for_any_thread_count() {
 }
 
 #[test]
+fn metals_agree_with_one_path_at_a_time() {
+    // Mirrors (Dirac lobes: no light sample, emission found counted whole)
+    // and rough metals (GGX: light samples weighed by MIS) under a large
+    // area light, by the general BSDF.
+    let loaded = repo_scene(
+        "scenes/metals.toml",
+        "resolution = [64, 36]\nspp = 256",
+        "max_depth = 8",
+    );
+    assert_agree(&loaded, "metals");
+}
+
+#[test]
+fn gltf_metallic_roughness_agrees_with_one_path_at_a_time() {
+    // glTF's layered BRDF (iridescence, sheen, clearcoat, normal maps)
+    // under an environment map.
+    let loaded = repo_scene(
+        "scenes/gltf-layers.toml",
+        "resolution = [64, 30]\nspp = 256",
+        "max_depth = 8",
+    );
+    assert_agree(&loaded, "gltf-layers");
+}
+
+#[test]
 fn only_scenes_the_core_models_go_to_it() {
     let film = "resolution = [16, 16]\nspp = 1";
     let cornell = |integrator: &str| repo_scene("scenes/cornell-box.toml", film, integrator);
     assert!(packets_model(&cornell("max_depth = 16")));
+    for reflecting_only in ["scenes/metals.toml", "scenes/metals-studio.toml"] {
+        let loaded = repo_scene(reflecting_only, film, "type = \"path\"");
+        assert!(packets_model(&loaded), "{reflecting_only}");
+    }
     // Splitting, glass, media and fluorescence take the one-path walk.
     assert!(!packets_model(&cornell("split = 2")));
     for glass_media_or_fluorescence in [
         "scenes/glass-of-water.toml",
         "scenes/haze.toml",
         "scenes/fluorescence.toml",
-        "scenes/metals.toml",
+        "scenes/sunset.toml",
+        "scenes/gltf-spheres.toml",
     ] {
         let loaded = repo_scene(glass_media_or_fluorescence, film, "type = \"path\"");
         assert!(!packets_model(&loaded), "{glass_media_or_fluorescence}");

@@ -4,11 +4,13 @@
 //! bounces, then the shadow rays), and a path that ends leaves its lane to
 //! the tile's next sample.
 //!
-//! It models only what a scene of diffuse surfaces needs: no media, no
-//! glass or metal, no single-sided surfaces, no splitting
-//! ([`models`]). What it drops is the one-at-a-time walk's generality
-//! (the visitor, the IOR stack, free flights, dispersion), which a diffuse
-//! scene pays for without using. The estimator is the path tracer's
+//! It models what a scene of surfaces that only reflect needs (diffuse,
+//! metal, glTF's metallic-roughness, single-sided or not): no media, no
+//! glass, no fluorescence, no splitting ([`models`]). What it drops is
+//! the one-at-a-time walk's generality (the visitor, the IOR stack, free
+//! flights, dispersion), which such a scene pays for without using.
+//! Diffuse surfaces take a lean BSDF of their own ([`Diffuse`]); the
+//! others the general one. The estimator is the path tracer's
 //! (`path`): next-event estimation and BSDF sampling weighed by the power
 //! heuristic, the same Russian roulette, the same numbers of the sample's
 //! sequence for the same decisions. Images agree with the one-at-a-time
@@ -30,8 +32,11 @@ use crate::film::FilmTile;
 use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
+use crate::integrator::interface::{bsdf_at, MAX_FALSE_INTERSECTIONS};
 use crate::light::{Light, LightSource};
-use crate::material::{cosine_hemisphere, facing_frame, Material, ShadingGeometry};
+use crate::material::{
+    cosine_hemisphere, facing_frame, Bsdf, Material, Reflectance, ShadingGeometry, TransportMode,
+};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::memo::SpectrumMemo;
@@ -48,15 +53,17 @@ impl PathTracer {
     }
 }
 
-/// Whether the packet core models everything `scene` needs under `tracer`.
+/// Whether the packet core models everything `scene` needs under `tracer`:
+/// surfaces that reflect and never transmit (so no IOR stack), in no media.
 pub fn models(tracer: &PathTracer, scene: &Scene) -> bool {
     tracer.split == 1
         && !scene.has_media()
-        && !scene.has_single_sided()
-        && scene
-            .materials
-            .iter()
-            .all(|m| matches!(m, Material::Diffuse { .. }))
+        && scene.materials.iter().all(|m| {
+            matches!(
+                m,
+                Material::Diffuse { .. } | Material::Conductor { .. } | Material::Pbr(_)
+            )
+        })
 }
 
 /// A camera sample in its lane.
@@ -76,6 +83,11 @@ struct Lane {
     l: SampledSpectrum,
     /// Surfaces scattered from so far.
     depth: u32,
+    /// The ray is the camera's, which passes the back faces of
+    /// single-sided surfaces (as `interface::trace` does), and how many it
+    /// has passed.
+    camera_ray: bool,
+    passed: u32,
     /// The last bounce was a Dirac one, or there was none: emission found
     /// now has no light sample competing.
     specular: bool,
@@ -135,7 +147,16 @@ pub fn render_tile(
         }
         for (lane, hit) in lanes.iter_mut().zip(&hits) {
             lane.goes_on = match hit {
-                Some(hit) => lane.scatter(tracer, scene, hit),
+                Some(hit)
+                    if lane.camera_ray
+                        && scene.hides_back_face(hit.material, hit.ng, lane.ray.dir) =>
+                {
+                    lane.pass(hit)
+                }
+                Some(hit) => {
+                    lane.camera_ray = false;
+                    lane.scatter(tracer, scene, hit)
+                }
                 None => lane.escape(tracer, scene),
             };
         }
@@ -199,6 +220,8 @@ impl Lane {
             beta: SampledSpectrum::ONE,
             l: SampledSpectrum::ZERO,
             depth: 0,
+            camera_ray: true,
+            passed: 0,
             specular: true,
             prev_pdf: 0.0,
             shadow: None,
@@ -218,19 +241,49 @@ impl Lane {
             return false;
         }
         self.depth += 1;
-        let surface = Diffuse::at(scene, hit, -self.ray.dir, &self.wl, &mut self.spectra);
-        let u_light = self.sampler.next_4d();
-        if tracer.strategy != Strategy::Bsdf {
-            self.sample_light(tracer, scene, hit, &surface, u_light);
+        let wo = -self.ray.dir;
+        match &scene.materials[hit.material as usize] {
+            Material::Diffuse { reflectance } => {
+                let surface = Diffuse::at(reflectance, hit, wo, &self.wl, &mut self.spectra);
+                self.bounce(tracer, scene, hit, &surface)
+            }
+            _ => {
+                let bsdf = bsdf_at(scene, hit, wo, &mut self.wl, SampledSpectrum::ONE);
+                self.bounce(tracer, scene, hit, &General { bsdf, wo })
+            }
         }
-        let [u0, u1, _, u_rr] = self.sampler.next_4d();
-        let Some((wi, f, pdf)) = surface.sample((u0, u1)) else {
+    }
+
+    /// From `hit`, whose BSDF is `surface`: the light sample, the bounce
+    /// and Russian roulette; whether the path goes on.
+    #[inline(always)]
+    fn bounce(
+        &mut self,
+        tracer: &PathTracer,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        surface: &impl Surface,
+    ) -> bool {
+        // The light sample's numbers are drawn whatever happens, as the
+        // one-path walk draws them, so later bounces use the same ones.
+        let u_light = self.sampler.next_4d();
+        if tracer.strategy != Strategy::Bsdf && !surface.is_specular() {
+            self.sample_light(tracer, scene, hit, surface, u_light);
+        }
+        let u_bounce = self.sampler.next_4d();
+        let Some((wi, weight, pdf, specular)) = surface.sample(u_bounce) else {
             return false;
         };
-        self.beta *= f * (surface.frame.n.dot(wi).abs() / pdf);
-        (self.specular, self.prev_pdf) = (false, pdf);
+        self.beta *= weight;
+        (self.specular, self.prev_pdf) = (specular, pdf);
         self.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, wi), wi);
-        russian_roulette(&mut self.beta, 1.0, self.depth, tracer.rr_depth, u_rr)
+        russian_roulette(
+            &mut self.beta,
+            1.0,
+            self.depth,
+            tracer.rr_depth,
+            u_bounce[3],
+        )
     }
 
     /// Adds the emission of light `i` at `hit`, which the path's ray found,
@@ -262,7 +315,7 @@ impl Lane {
         tracer: &PathTracer,
         scene: &Scene,
         hit: &SurfaceHit,
-        surface: &Diffuse,
+        surface: &impl Surface,
         [p0, p1, u_light, _]: [f32; 4],
     ) {
         let Some((light, pmf)) = scene.lights.choose(u_light) else {
@@ -299,6 +352,18 @@ impl Lane {
         self.unblocked = self.beta * (f * ls.li * (weight / light_pdf));
     }
 
+    /// The camera's ray goes on past the back of a single-sided surface,
+    /// unless it has passed as many false intersections as a path may.
+    fn pass(&mut self, hit: &SurfaceHit) -> bool {
+        if self.passed == MAX_FALSE_INTERSECTIONS {
+            return false;
+        }
+        self.passed += 1;
+        let origin = offset_ray_origin(hit.p, hit.p_err, hit.ng, self.ray.dir);
+        self.ray = Ray::new(origin, self.ray.dir);
+        true
+    }
+
     /// The path left the scene: the lights at infinity it sees.
     fn escape(&mut self, tracer: &PathTracer, scene: &Scene) -> bool {
         for (i, light) in scene.lights.infinite() {
@@ -309,6 +374,52 @@ impl Lane {
             self.l += self.beta * le * weight;
         }
         false
+    }
+}
+
+/// What a bounce needs of the surface a path scatters from: a diffuse
+/// one (the lean [`Diffuse`]) or another that only reflects ([`General`]).
+/// Each gets a bounce of its own (`Lane::bounce` is generic), so a scene of
+/// diffuse surfaces alone pays nothing for the others.
+trait Surface {
+    /// A mirror: no light sample can find light it reflects.
+    fn is_specular(&self) -> bool;
+
+    /// f·|cos θ| towards `wi` and the density of sampling `wi`.
+    fn eval(&self, wi: Vec3) -> (SampledSpectrum, f32);
+
+    /// A direction drawn with the numbers `u` (u₀, u₁ for the direction,
+    /// u₂ for the lobe): the direction, f·|cos θ|/pdf, the density and
+    /// whether a Dirac lobe drew it; None where the path ends.
+    fn sample(&self, u: [f32; 4]) -> Option<(Vec3, SampledSpectrum, f32, bool)>;
+}
+
+/// A metal or glTF's metallic-roughness, by the general BSDF, met by a
+/// path arriving from `wo`.
+struct General {
+    bsdf: Bsdf,
+    wo: Vec3,
+}
+
+impl Surface for General {
+    #[inline(always)]
+    fn is_specular(&self) -> bool {
+        self.bsdf.is_specular()
+    }
+
+    #[inline(always)]
+    fn eval(&self, wi: Vec3) -> (SampledSpectrum, f32) {
+        let e = self.bsdf.eval(self.wo, wi, TransportMode::Radiance);
+        (e.f * self.bsdf.cos_theta(wi), e.pdf)
+    }
+
+    #[inline(always)]
+    fn sample(&self, [u0, u1, uc, _]: [f32; 4]) -> Option<(Vec3, SampledSpectrum, f32, bool)> {
+        let bs = self
+            .bsdf
+            .sample(self.wo, uc, (u0, u1), TransportMode::Radiance)?;
+        let weight = bs.f * (self.bsdf.cos_theta(bs.wi) / bs.pdf);
+        Some((bs.wi, weight, bs.pdf, bs.is_specular()))
     }
 }
 
@@ -328,15 +439,12 @@ struct Diffuse {
 impl Diffuse {
     #[inline(always)]
     fn at(
-        scene: &Scene,
+        reflectance: &Reflectance,
         hit: &SurfaceHit,
         wo: Vec3,
         wl: &SampledWavelengths,
         spectra: &mut SpectrumMemo,
     ) -> Diffuse {
-        let Material::Diffuse { reflectance } = &scene.materials[hit.material as usize] else {
-            unreachable!("the packet core renders scenes of diffuse surfaces alone (`models`)");
-        };
         let geometry = ShadingGeometry {
             ng: hit.ng,
             ns: hit.ns,
@@ -353,8 +461,20 @@ impl Diffuse {
         }
     }
 
-    /// f·|cos θ| towards `wi` and the density of sampling `wi` (both zero
-    /// where `wi` is not a reflection on `wo`'s side).
+    /// `wi` leaves on `wo`'s side of the shading and the geometric normal.
+    #[inline(always)]
+    fn reflects(&self, wi: Vec3, wi_local: Vec3) -> bool {
+        self.wo_local.z * wi_local.z > 0.0 && self.wo.dot(self.ng) * wi.dot(self.ng) > 0.0
+    }
+}
+
+impl Surface for Diffuse {
+    #[inline(always)]
+    fn is_specular(&self) -> bool {
+        false
+    }
+
+    /// Both zero where `wi` is not a reflection on `wo`'s side.
     #[inline(always)]
     fn eval(&self, wi: Vec3) -> (SampledSpectrum, f32) {
         let wi_local = self.frame.to_local(wi);
@@ -366,11 +486,11 @@ impl Diffuse {
         (self.f * cos, cos * FRAC_1_PI)
     }
 
-    /// A cosine-weighted direction from the numbers `u`: the direction, f
-    /// and its density; None where it is not a reflection on `wo`'s side.
+    /// A cosine-weighted direction; None where it is not a reflection on
+    /// `wo`'s side.
     #[inline(always)]
-    fn sample(&self, u: (f32, f32)) -> Option<(Vec3, SampledSpectrum, f32)> {
-        let mut wi_local = cosine_hemisphere(u);
+    fn sample(&self, [u0, u1, _, _]: [f32; 4]) -> Option<(Vec3, SampledSpectrum, f32, bool)> {
+        let mut wi_local = cosine_hemisphere((u0, u1));
         if self.wo_local.z < 0.0 {
             wi_local.z = -wi_local.z;
         }
@@ -379,12 +499,8 @@ impl Diffuse {
             return None;
         }
         let pdf = wi_local.z.abs() * FRAC_1_PI;
-        (pdf > 0.0 && pdf.is_finite()).then_some((wi, self.f, pdf))
-    }
-
-    /// `wi` leaves on `wo`'s side of the shading and the geometric normal.
-    #[inline(always)]
-    fn reflects(&self, wi: Vec3, wi_local: Vec3) -> bool {
-        self.wo_local.z * wi_local.z > 0.0 && self.wo.dot(self.ng) * wi.dot(self.ng) > 0.0
+        // `Bsdf::cos_theta`'s n·wi, as the one-path walk weighs the bounce.
+        let weight = self.f * (self.frame.n.dot(wi).abs() / pdf);
+        (pdf > 0.0 && pdf.is_finite()).then_some((wi, weight, pdf, false))
     }
 }
