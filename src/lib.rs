@@ -31,4 +31,6 @@ pub mod sampler;
 pub mod scene;
 pub mod schema;
 pub mod spectrum;
+#[cfg(test)]
+mod test_random;
 pub mod texture;

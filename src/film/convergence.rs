@@ -100,13 +100,8 @@ mod tests {
     /// the mean, σ²/n, in the relMSE's weights.
     #[test]
     fn independent_samples_give_the_variance_of_the_mean() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = crate::test_random::XorShift64(0x2545_f491_4f6c_dd1d);
+        let mut uniform = || random.next_f64();
         let (w, h, n) = (80u32, 50u32, 64usize);
         // Samples uniform on [0, 1): mean 0.5, variance 1/12.
         let samples: Vec<Vec<f64>> = (0..w * h)

@@ -113,12 +113,9 @@ mod tests {
             -1e30,
             278.25,
         ]);
-        let mut x = 0x1234_5678u32;
+        let mut random = crate::test_random::XorShift32(0x1234_5678);
         for _ in 0..10_000 {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            let v = f32::from_bits(x);
+            let v = f32::from_bits(random.next_u32());
             if v.is_finite() && v.abs() < f32::MAX {
                 values.push(v);
             }
@@ -141,11 +138,9 @@ mod tests {
     /// The three-at-once step is the scalar one's, bit for bit.
     #[test]
     fn components_step_as_one_does() {
-        let mut x = 0x9e37_79b9u32;
+        let mut random = crate::test_random::XorShift32(0x9e37_79b9);
         let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
+            let x = random.next_u32();
             match x % 7 {
                 0 => 0.0,
                 1 => -0.0,

@@ -19,7 +19,7 @@ struct Distribution2d {
     height: usize,
     /// Per row: the cumulative sums of its cells, normalised (len width + 1).
     conditional: Vec<f32>,
-    /// Per row: its guide table (`guide`, len GUIDE + 1).
+    /// Per row: its guide table (`guide_table`, len GUIDE + 1).
     row_guides: Vec<u32>,
     /// Cumulative row sums, normalised (len height + 1).
     marginal: Vec<f32>,
@@ -38,7 +38,7 @@ struct Distribution2d {
 const GUIDE: usize = 64;
 
 /// The guide table of `cdf` (len GUIDE + 1).
-fn guide(cdf: &[f32]) -> impl Iterator<Item = u32> + '_ {
+fn guide_table(cdf: &[f32]) -> impl Iterator<Item = u32> + '_ {
     (0..=GUIDE).map(|k| cdf.partition_point(|&c| c <= k as f32 / GUIDE as f32) as u32)
 }
 
@@ -100,12 +100,12 @@ impl Distribution2d {
         let mut rows = Vec::with_capacity(height);
         for row in weights.chunks_exact(width) {
             let (cdf, sum) = cumulative(row);
-            row_guides.extend(guide(&cdf));
+            row_guides.extend(guide_table(&cdf));
             conditional.extend(cdf);
             rows.push(sum);
         }
         let (marginal, _) = cumulative(&rows);
-        let marginal_guide = guide(&marginal).collect();
+        let marginal_guide = guide_table(&marginal).collect();
         let cell = weights
             .iter()
             .map(|w| if total > 0.0 { (w / total) as f32 } else { 0.0 })
@@ -280,7 +280,7 @@ mod tests {
         }));
         for weights in &rows {
             let (cdf, _) = cumulative(weights);
-            let table: Vec<u32> = guide(&cdf).collect();
+            let table: Vec<u32> = guide_table(&cdf).collect();
             let mut us: Vec<f32> = (0..GUIDE)
                 .flat_map(|k| {
                     let b = k as f32 / GUIDE as f32;

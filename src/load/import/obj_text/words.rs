@@ -223,13 +223,8 @@ mod tests {
         .map(String::from)
         .to_vec();
         // Random decimals of 1 to 15 digits, with the point anywhere.
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut random = crate::test_random::XorShift64(0x9e37_79b9_7f4a_7c15);
+        let mut next = || random.next_u64();
         for _ in 0..200_000 {
             let digits = 1 + (next() % 15) as usize;
             let mut s: String = (0..digits)
