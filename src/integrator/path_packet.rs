@@ -5,8 +5,8 @@
 //! the tile's next sample.
 //!
 //! It models what a scene of surfaces that only reflect needs (diffuse,
-//! metal, glTF's metallic-roughness, single-sided or not): no media, no
-//! glass, no fluorescence, no splitting ([`models`]). What it drops is
+//! fluorescent, metal, glTF's metallic-roughness, single-sided or not): no
+//! media, no glass, no splitting ([`models`]). What it drops is
 //! the one-at-a-time walk's generality (the visitor, the IOR stack, free
 //! flights, dispersion), which such a scene pays for without using.
 //! Diffuse surfaces take a lean BSDF of their own ([`Diffuse`]); the
@@ -22,7 +22,7 @@ use std::ops::Range;
 
 use std::f32::consts::FRAC_1_PI;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use super::{power_heuristic, russian_roulette, PathCounters, PathTracer, PixelSample, Strategy};
 use crate::drive::in_order::InOrder;
@@ -61,7 +61,10 @@ pub fn models(tracer: &PathTracer, scene: &Scene) -> bool {
         && scene.materials.iter().all(|m| {
             matches!(
                 m,
-                Material::Diffuse { .. } | Material::Conductor { .. } | Material::Pbr(_)
+                Material::Diffuse { .. }
+                    | Material::Fluorescent { .. }
+                    | Material::Conductor { .. }
+                    | Material::Pbr(_)
             )
         })
 }
@@ -73,6 +76,9 @@ struct Lane {
     sample: (u32, u32, u32),
     sampler: Sampler,
     wl: SampledWavelengths,
+    /// The wavelengths the camera sees, which the film gets (fluorescence
+    /// moves the path's own, `wl`, to where light was absorbed).
+    seen: Vec4,
     /// The spectra met so far at `wl` (reflectances, the lamps' emission).
     spectra: SpectrumMemo,
     /// The ray whose closest surface the path waits on.
@@ -187,10 +193,9 @@ pub fn render_tile(
         for k in (0..lanes.len()).rev() {
             if !lanes[k].goes_on {
                 let lane = lanes.swap_remove(k);
-                let measured = PixelSample {
-                    l: lane.l,
-                    wl: lane.wl,
-                };
+                let mut wl = lane.wl;
+                wl.lambda = lane.seen;
+                let measured = PixelSample { l: lane.l, wl };
                 in_order.end(lane.order, lane.sample, measured, &lane.counters);
             }
         }
@@ -215,6 +220,7 @@ impl Lane {
             sample: (x, y, index),
             sampler,
             wl,
+            seen: wl.lambda,
             spectra: SpectrumMemo::default(),
             ray,
             beta: SampledSpectrum::ONE,
@@ -247,8 +253,17 @@ impl Lane {
                 let surface = Diffuse::at(reflectance, hit, wo, &self.wl, &mut self.spectra);
                 self.bounce(tracer, scene, hit, &surface)
             }
-            _ => {
+            material => {
                 let bsdf = bsdf_at(scene, hit, wo, &mut self.wl, SampledSpectrum::ONE);
+                if material.is_fluorescent() {
+                    // As in the one-path walk (`walk::at_surface`): the BSDF
+                    // at the wavelengths seen, then the path moves to those
+                    // where the light was absorbed, which light samples and
+                    // the rest of the path see.
+                    let u = self.sampler.next_4d();
+                    self.beta *= material.fluoresce(hit.uv, &mut self.wl, u);
+                    self.spectra.forget();
+                }
                 self.bounce(tracer, scene, hit, &General { bsdf, wo })
             }
         }
@@ -394,8 +409,8 @@ trait Surface {
     fn sample(&self, u: [f32; 4]) -> Option<(Vec3, SampledSpectrum, f32, bool)>;
 }
 
-/// A metal or glTF's metallic-roughness, by the general BSDF, met by a
-/// path arriving from `wo`.
+/// A metal, glTF's metallic-roughness or a fluorescent surface, by the
+/// general BSDF, met by a path arriving from `wo`.
 struct General {
     bsdf: Bsdf,
     wo: Vec3,
