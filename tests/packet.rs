@@ -4,8 +4,8 @@
 //! block by block within 5σ on the Cornell Box, the colorchecker, a
 //! diffuse scene with every kind of light the core meets (area, point,
 //! environment, an emitting sphere) and spheres, the metals (mirrors and
-//! rough), glTF's metallic-roughness layers and fluorescence; the same image for any
-//! thread count; and only the scenes it models go to it.
+//! rough), glTF's metallic-roughness layers and fluorescence; the same
+//! image for any thread count; and only the scenes it models go to it.
 
 use crate::common::{assert_blocks_agree, repo_scene, scene};
 use prism::film::Film;
@@ -164,8 +164,8 @@ fn metals_agree_with_one_path_at_a_time() {
 
 #[test]
 fn gltf_metallic_roughness_agrees_with_one_path_at_a_time() {
-    // glTF's layered BRDF (iridescence, sheen, clearcoat, normal maps)
-    // under an environment map.
+    // glTF's layered BRDF (iridescence, specular, sheen, clearcoat) on
+    // single-sided surfaces, under an environment map.
     let loaded = repo_scene(
         "scenes/gltf-layers.toml",
         "resolution = [64, 30]\nspp = 256",
