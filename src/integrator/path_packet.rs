@@ -89,10 +89,8 @@ struct Lane {
     l: SampledSpectrum,
     /// Surfaces scattered from so far.
     depth: u32,
-    /// The ray is the camera's, which passes the back faces of
-    /// single-sided surfaces (as `interface::trace` does), and how many it
-    /// has passed.
-    camera_ray: bool,
+    /// Back faces of single-sided surfaces the camera's ray has passed (as
+    /// `interface::trace` does; the ray is the camera's while `depth` is 0).
     passed: u32,
     /// The last bounce was a Dirac one, or there was none: emission found
     /// now has no light sample competing.
@@ -154,15 +152,12 @@ pub fn render_tile(
         for (lane, hit) in lanes.iter_mut().zip(&hits) {
             lane.goes_on = match hit {
                 Some(hit)
-                    if lane.camera_ray
+                    if lane.depth == 0
                         && scene.hides_back_face(hit.material, hit.ng, lane.ray.dir) =>
                 {
                     lane.pass(hit)
                 }
-                Some(hit) => {
-                    lane.camera_ray = false;
-                    lane.scatter(tracer, scene, hit)
-                }
+                Some(hit) => lane.scatter(tracer, scene, hit),
                 None => lane.escape(tracer, scene),
             };
         }
@@ -226,7 +221,6 @@ impl Lane {
             beta: SampledSpectrum::ONE,
             l: SampledSpectrum::ZERO,
             depth: 0,
-            camera_ray: true,
             passed: 0,
             specular: true,
             prev_pdf: 0.0,
