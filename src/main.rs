@@ -424,10 +424,21 @@ fn run_baseline_if_asked() -> Result<(), String> {
     }
 }
 
+/// `PRISM_AVX512=0` keeps the ray packets to AVX2's eight lanes on a CPU
+/// with AVX-512: to compare the two on one machine.
+fn limit_packets_if_asked() -> Result<(), String> {
+    match std::env::var_os("PRISM_AVX512") {
+        Some(v) if v == "0" => prism::geometry::bvh::keep_packets_to_avx2(),
+        Some(v) if v != "1" => return Err(format!("PRISM_AVX512={v:?} is neither 0 nor 1")),
+        _ => {}
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     // First, before code that may use instructions this CPU lacks.
     prism::cpu::refuse_if_missing();
-    if let Err(e) = run_baseline_if_asked() {
+    if let Err(e) = run_baseline_if_asked().and_then(|()| limit_packets_if_asked()) {
         eprintln!("error: {e}");
         return ExitCode::from(1);
     }

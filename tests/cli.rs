@@ -575,6 +575,54 @@ fn the_baseline_build_renders_the_same_image() {
     );
 }
 
+/// `PRISM_AVX512=0` keeps the ray packets to AVX2's eight lanes where the
+/// CPU has AVX-512: the Cornell Box (which the packet core renders) comes
+/// out the same, bit for bit, with sixteen lanes and with eight (each lane
+/// does the single ray's operations). A value other than 0 or 1 is
+/// refused with a message.
+#[test]
+fn sixteen_ray_packets_render_what_eight_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+    let mut images = Vec::new();
+    for avx512 in ["0", "1"] {
+        let stem = dir.path().join(format!("w{avx512}"));
+        succeed(
+            prism()
+                .env("PRISM_AVX512", avx512)
+                .args([
+                    "render",
+                    "--quiet",
+                    "--resolution",
+                    "48x48",
+                    "--spp",
+                    "8",
+                    "--uniform",
+                ])
+                .arg(&scene)
+                .arg("-o")
+                .arg(&stem),
+        );
+        images.push(std::fs::read(stem.with_extension("exr")).unwrap());
+    }
+    assert!(
+        images[0] == images[1],
+        "eight- and sixteen-ray packets' images differ"
+    );
+    let out = prism()
+        .env("PRISM_AVX512", "yes")
+        .arg("render")
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("PRISM_AVX512=\"yes\" is neither 0 nor 1"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn the_profile_guided_build_trains_on_renders_that_run() {
     // tools/pgo-build.sh renders every line of tools/pgo-training.txt with

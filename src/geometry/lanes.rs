@@ -1,9 +1,10 @@
-//! SIMD lanes for the packet ray/triangle test: four (`glam::Vec4`, SSE)
-//! or, in builds with AVX2, eight (`F32x8`). The test is written once over
-//! `Lanes`; each operation is the IEEE one in every lane, so both widths
-//! give the scalar test's results bit for bit.
+//! SIMD lanes for the packet ray/triangle test: four (`glam::Vec4`, SSE),
+//! in builds with AVX2 eight (`F32x8`) and, where the CPU has AVX-512,
+//! sixteen (`F32x16`, only inside functions compiled for AVX-512). The test
+//! is written once over `Lanes`; each operation is the IEEE one in every
+//! lane, so every width gives the scalar test's results bit for bit.
 
-use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+use std::ops::{Add, BitAnd, BitOr, Div, IndexMut, Mul, Not, Sub};
 
 use glam::{BVec4A, Vec4};
 
@@ -16,6 +17,8 @@ pub trait Lanes:
         + BitAnd<Output = Self::Mask>
         + BitOr<Output = Self::Mask>
         + Not<Output = Self::Mask>;
+    /// The lanes as an array of `WIDTH` values.
+    type Array: Copy + IndexMut<usize, Output = f32> + AsRef<[f32]>;
     const WIDTH: usize;
     fn splat(x: f32) -> Self;
     fn cmpeq(self, other: Self) -> Self::Mask;
@@ -25,6 +28,8 @@ pub trait Lanes:
     fn cmpgt(self, other: Self) -> Self::Mask;
     fn cmpge(self, other: Self) -> Self::Mask;
     fn abs(self) -> Self;
+    /// `a` in the lanes of `mask`, `b` in the others.
+    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
     /// `min` and `max` as SSE/AVX compute them: the second operand where
     /// either is NaN.
     fn min(self, other: Self) -> Self;
@@ -33,15 +38,15 @@ pub trait Lanes:
     fn bits(mask: Self::Mask) -> u32;
     /// The mask of the lanes whose bits are set in `bits`.
     fn mask(bits: u32) -> Self::Mask;
-    /// The lanes, the first `WIDTH` of eight.
-    fn to_array(self) -> [f32; 8];
-    fn from_array(lanes: [f32; 8]) -> Self;
+    fn to_array(self) -> Self::Array;
+    fn from_array(lanes: Self::Array) -> Self;
     /// The first `WIDTH` values of `values`.
     fn load(values: &[f32]) -> Self;
 }
 
 impl Lanes for Vec4 {
     type Mask = BVec4A;
+    type Array = [f32; 4];
     const WIDTH: usize = 4;
     #[inline(always)]
     fn splat(x: f32) -> Self {
@@ -76,6 +81,10 @@ impl Lanes for Vec4 {
         Vec4::abs(self)
     }
     #[inline(always)]
+    fn select(mask: BVec4A, a: Self, b: Self) -> Self {
+        Vec4::select(mask, a, b)
+    }
+    #[inline(always)]
     fn min(self, other: Self) -> Self {
         Vec4::min(self, other)
     }
@@ -103,13 +112,12 @@ impl Lanes for Vec4 {
         MASKS[(bits & 15) as usize]
     }
     #[inline(always)]
-    fn to_array(self) -> [f32; 8] {
-        let [a, b, c, d] = Vec4::to_array(&self);
-        [a, b, c, d, 0.0, 0.0, 0.0, 0.0]
+    fn to_array(self) -> [f32; 4] {
+        Vec4::to_array(&self)
     }
     #[inline(always)]
-    fn from_array(l: [f32; 8]) -> Self {
-        Vec4::new(l[0], l[1], l[2], l[3])
+    fn from_array(l: [f32; 4]) -> Self {
+        Vec4::from_array(l)
     }
     #[inline(always)]
     fn load(values: &[f32]) -> Self {
@@ -145,12 +153,6 @@ mod avx {
         #[inline(always)]
         pub fn from_halves(low: Vec4, high: Vec4) -> Self {
             unsafe { F32x8(_mm256_set_m128(high.into(), low.into())) }
-        }
-
-        /// `a` in the lanes of `mask`, `b` in the others.
-        #[inline(always)]
-        pub fn select(mask: Mask8, a: F32x8, b: F32x8) -> F32x8 {
-            unsafe { F32x8(_mm256_blendv_ps(b.0, a.0, mask.0)) }
         }
 
         /// Rows become columns: lane j of result i is lane i of `rows[j]`
@@ -222,6 +224,7 @@ mod avx {
 
     impl Lanes for F32x8 {
         type Mask = Mask8;
+        type Array = [f32; 8];
         const WIDTH: usize = 8;
         #[inline(always)]
         fn splat(x: f32) -> Self {
@@ -259,6 +262,10 @@ mod avx {
             }
         }
         #[inline(always)]
+        fn select(mask: Mask8, a: F32x8, b: F32x8) -> F32x8 {
+            unsafe { F32x8(_mm256_blendv_ps(b.0, a.0, mask.0)) }
+        }
+        #[inline(always)]
         fn min(self, other: Self) -> Self {
             unsafe { F32x8(_mm256_min_ps(self.0, other.0)) }
         }
@@ -294,11 +301,155 @@ mod avx {
     }
 }
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub use avx512::{F32x16, Mask16};
+
+/// Sixteen lanes in one AVX-512 register. The build targets x86-64-v3, so
+/// these operations are inlined as AVX-512 instructions only into
+/// functions compiled with `#[target_feature(enable = "avx512f")]`, which
+/// run only where the CPU has it (`avx512::available`).
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub mod avx512 {
+    // SAFETY (every `unsafe` below): the intrinsics need AVX-512F, and
+    // values of these types are only made in code that runs where the CPU
+    // has it (`available`); none touches memory but its own locals and
+    // the slices it is given.
+    use std::arch::x86_64::*;
+    use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+
+    use super::Lanes;
+
+    /// Whether this CPU (and its OS) runs AVX-512F.
+    #[inline]
+    pub fn available() -> bool {
+        std::arch::is_x86_feature_detected!("avx512f")
+    }
+
+    /// Sixteen f32 lanes.
+    #[derive(Clone, Copy, Debug)]
+    pub struct F32x16(__m512);
+
+    /// A bit per lane.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Mask16(u16);
+
+    macro_rules! binary {
+        ($trait:ident, $method:ident, $intrinsic:ident) => {
+            impl $trait for F32x16 {
+                type Output = F32x16;
+                #[inline(always)]
+                fn $method(self, other: F32x16) -> F32x16 {
+                    unsafe { F32x16($intrinsic(self.0, other.0)) }
+                }
+            }
+        };
+    }
+    binary!(Add, add, _mm512_add_ps);
+    binary!(Sub, sub, _mm512_sub_ps);
+    binary!(Mul, mul, _mm512_mul_ps);
+    binary!(Div, div, _mm512_div_ps);
+
+    impl BitAnd for Mask16 {
+        type Output = Mask16;
+        #[inline(always)]
+        fn bitand(self, other: Mask16) -> Mask16 {
+            Mask16(self.0 & other.0)
+        }
+    }
+
+    impl BitOr for Mask16 {
+        type Output = Mask16;
+        #[inline(always)]
+        fn bitor(self, other: Mask16) -> Mask16 {
+            Mask16(self.0 | other.0)
+        }
+    }
+
+    impl Not for Mask16 {
+        type Output = Mask16;
+        #[inline(always)]
+        fn not(self) -> Mask16 {
+            Mask16(!self.0)
+        }
+    }
+
+    impl Lanes for F32x16 {
+        type Mask = Mask16;
+        type Array = [f32; 16];
+        const WIDTH: usize = 16;
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            unsafe { F32x16(_mm512_set1_ps(x)) }
+        }
+        #[inline(always)]
+        fn cmpeq(self, other: Self) -> Mask16 {
+            unsafe { Mask16(_mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmpne(self, other: Self) -> Mask16 {
+            unsafe { Mask16(_mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmplt(self, other: Self) -> Mask16 {
+            unsafe { Mask16(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmple(self, other: Self) -> Mask16 {
+            unsafe { Mask16(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmpgt(self, other: Self) -> Mask16 {
+            unsafe { Mask16(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn cmpge(self, other: Self) -> Mask16 {
+            unsafe { Mask16(_mm512_cmp_ps_mask::<_CMP_GE_OQ>(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            unsafe { F32x16(_mm512_abs_ps(self.0)) }
+        }
+        #[inline(always)]
+        fn select(mask: Mask16, a: F32x16, b: F32x16) -> F32x16 {
+            unsafe { F32x16(_mm512_mask_blend_ps(mask.0, b.0, a.0)) }
+        }
+        #[inline(always)]
+        fn min(self, other: Self) -> Self {
+            unsafe { F32x16(_mm512_min_ps(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn max(self, other: Self) -> Self {
+            unsafe { F32x16(_mm512_max_ps(self.0, other.0)) }
+        }
+        #[inline(always)]
+        fn bits(mask: Mask16) -> u32 {
+            mask.0 as u32
+        }
+        #[inline(always)]
+        fn mask(bits: u32) -> Mask16 {
+            Mask16(bits as u16)
+        }
+        #[inline(always)]
+        fn to_array(self) -> [f32; 16] {
+            unsafe { std::mem::transmute::<__m512, [f32; 16]>(self.0) }
+        }
+        #[inline(always)]
+        fn from_array(lanes: [f32; 16]) -> Self {
+            Self::load(&lanes)
+        }
+        #[inline(always)]
+        fn load(values: &[f32]) -> Self {
+            let lanes = &values[..16];
+            unsafe { F32x16(_mm512_loadu_ps(lanes.as_ptr())) }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Both widths agree with scalar IEEE arithmetic and comparisons, NaN,
+    /// Every width agrees with scalar IEEE arithmetic and comparisons, NaN,
     /// infinities and signed zeros included.
     fn check<L: Lanes>() {
         let values = [
@@ -313,9 +464,9 @@ mod tests {
         ];
         let n = L::WIDTH;
         for shift in 0..8 {
-            let a: [f32; 8] = std::array::from_fn(|i| values[i]);
-            let b: [f32; 8] = std::array::from_fn(|i| values[(i + shift) % 8]);
-            let (x, y) = (L::from_array(a), L::from_array(b));
+            let a: [f32; 16] = std::array::from_fn(|i| values[i % 8]);
+            let b: [f32; 16] = std::array::from_fn(|i| values[(i + shift + i / 8) % 8]);
+            let (x, y) = (L::load(&a), L::load(&b));
             let bits = |f: &dyn Fn(f32, f32) -> bool| {
                 (0..n)
                     .filter(|&i| f(a[i], b[i]))
@@ -329,7 +480,7 @@ mod tests {
             assert_eq!(L::bits(x.cmpgt(y)), bits(&|p, q| p > q));
             assert_eq!(L::bits(x.cmpge(y)), bits(&|p, q| p >= q));
             let lanes = |v: L| {
-                v.to_array()[..n]
+                v.to_array().as_ref()[..n]
                     .iter()
                     .map(|f| f.to_bits())
                     .collect::<Vec<_>>()
@@ -357,12 +508,10 @@ mod tests {
             assert_eq!(lanes(x.min(y)), expect(&|p, q| if p < q { p } else { q }));
             assert_eq!(lanes(x.max(y)), expect(&|p, q| if p > q { p } else { q }));
             assert_eq!(lanes(L::load(&b)), expect(&|_, q| q));
-            let mask = (shift as u32 * 37) & ((1 << n) - 1);
+            let all = (1u32 << n) - 1;
+            let mask = (shift as u32 * 0x9e37) & all;
             assert_eq!(L::bits(L::mask(mask)), mask);
-            assert_eq!(
-                L::bits(!L::mask(mask) & L::mask(0xff)),
-                !mask & ((1 << n) - 1)
-            );
+            assert_eq!(L::bits(!L::mask(mask) & L::mask(all)), !mask & all);
             assert_eq!(L::bits(L::mask(mask) | L::mask(1)), mask | 1);
         }
     }
@@ -379,6 +528,35 @@ mod tests {
         let halves =
             F32x8::from_halves(Vec4::new(1.0, 2.0, 3.0, 4.0), Vec4::new(5.0, 6.0, 7.0, 8.0));
         assert_eq!(halves.to_array(), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+    }
+
+    /// Sixteen lanes, where the CPU has AVX-512 (the check is compiled
+    /// for it, so that the operations are the AVX-512 instructions).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[test]
+    fn sixteen_lanes_are_ieee_lane_by_lane() {
+        #[target_feature(enable = "avx512f")]
+        fn check_sixteen() {
+            check::<F32x16>();
+            let a: [f32; 16] = std::array::from_fn(|i| i as f32);
+            let b: [f32; 16] = std::array::from_fn(|i| -(i as f32));
+            let mask = F32x16::mask(0b1010_0000_1111_0001);
+            let picked = F32x16::select(mask, F32x16::load(&a), F32x16::load(&b)).to_array();
+            for i in 0..16 {
+                let want = if 0b1010_0000_1111_0001 & (1 << i) != 0 {
+                    a[i]
+                } else {
+                    b[i]
+                };
+                assert_eq!(picked[i], want, "lane {i}");
+            }
+        }
+        if avx512::available() {
+            // SAFETY: the CPU has AVX-512F.
+            unsafe { check_sixteen() }
+        } else {
+            eprintln!("no AVX-512 on this CPU: sixteen lanes not checked");
+        }
     }
 }
 

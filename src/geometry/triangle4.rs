@@ -166,6 +166,14 @@ impl<L: Lanes> LaneHits<L> {
     }
 }
 
+/// The largest magnitude of three, lane by lane. (A function, not a
+/// closure: closures are not compiled for AVX-512 with the sixteen-lane
+/// walk that inlines this test.)
+#[inline(always)]
+fn max3<L: Lanes>(a: L, b: L, c: L) -> L {
+    a.abs().max(b.abs()).max(c.abs())
+}
+
 /// The rest of the watertight test once the vertices are translated to
 /// the ray origin, permuted and sheared (`sheared[k]`: vertex k's x, y and
 /// its z before scaling by `sz`): the lanes of `lanes` whose hit lies
@@ -228,7 +236,6 @@ pub(super) fn test_sheared<L: Lanes>(
     ok = ok & t.cmplt(t_max);
 
     // Reject t that is not surely positive given the rounding above.
-    let max3 = |a: L, b: L, c: L| a.abs().max(b.abs()).max(c.abs());
     let max_z = max3(z0, z1, z2);
     let max_x = max3(x0, x1, x2);
     let max_y = max3(y0, y1, y2);

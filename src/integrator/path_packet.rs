@@ -1,5 +1,6 @@
 //! The path tracer's packet core: a tile's camera samples advance as a
-//! packet of up to [`LANES`] paths, each stage run for every path of the
+//! packet of as many paths as the CPU's packet of rays holds (sixteen with
+//! AVX-512, else eight: `packet_width`), each stage run for every path of the
 //! packet before the next (closest hits, emission found, light samples,
 //! bounces, then the shadow rays), and a path that ends leaves its lane to
 //! the tile's next sample.
@@ -29,6 +30,7 @@ use crate::drive::in_order::InOrder;
 use crate::drive::stream;
 use crate::drive::{RenderJob, TileRect};
 use crate::film::FilmTile;
+use crate::geometry::bvh::{packet_width, MAX_PACKET_WIDTH};
 use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
@@ -41,9 +43,6 @@ use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::memo::SpectrumMemo;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
-
-/// Paths in a packet.
-pub const LANES: usize = 8;
 
 impl PathTracer {
     /// Whether this tracer's renders of `scene` advance their samples as
@@ -121,16 +120,17 @@ pub fn render_tile(
         .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
         .flat_map(|(x, y)| indices(x, y).map(move |i| (x, y, i)));
     let mut in_order = InOrder::default();
-    let mut lanes: Vec<Lane> = Vec::with_capacity(LANES);
+    let width = packet_width();
+    let mut lanes: Vec<Lane> = Vec::with_capacity(width);
     // A tree that outgrows the caches: the packet's walks interleaved as a
     // stream's, so that their waits for memory overlap.
     let streams = stream::wanted(job);
-    let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); LANES];
-    let mut triangles = [None; LANES];
-    let mut hits: [Option<SurfaceHit>; LANES] = [None; LANES];
-    let mut blocked = [false; LANES];
+    let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); MAX_PACKET_WIDTH];
+    let mut triangles = [None; MAX_PACKET_WIDTH];
+    let mut hits: [Option<SurfaceHit>; MAX_PACKET_WIDTH] = [None; MAX_PACKET_WIDTH];
+    let mut blocked = [false; MAX_PACKET_WIDTH];
     loop {
-        while lanes.len() < LANES {
+        while lanes.len() < width {
             let Some(sample) = samples.next() else {
                 break;
             };

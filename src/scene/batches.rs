@@ -1,9 +1,10 @@
 //! Rays traced together: as a stream, whose walks take turns so that
-//! their waits for memory overlap (big trees), or eight at a time through
-//! a small tree, one to a SIMD lane. Both answer as `intersect` and
+//! their waits for memory overlap (big trees), or eight or sixteen at a
+//! time (`packet_width`) through a small tree, one to a SIMD lane. Both answer as `intersect` and
 //! `occluded` answer each ray.
 
 use super::{Scene, SurfaceHit};
+use crate::geometry::bvh::{packet_width, MAX_PACKET_WIDTH};
 use crate::geometry::triangle;
 use crate::geometry::Ray;
 
@@ -32,8 +33,9 @@ impl Scene {
     }
 
     /// `intersect` for every ray of `rays` (`hits[i]` answers `rays[i]`),
-    /// eight at a time through the tree together where it is small enough
-    /// for that to pay (`Bvh::prefers_packets`), else one by one.
+    /// `packet_width()` at a time through the tree together where it is
+    /// small enough for that to pay (`Bvh::prefers_packets`), else one by
+    /// one.
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<SurfaceHit>]) {
         if !self.cutouts.is_empty() || !self.geometry.bvh.prefers_packets() {
             for (hit, ray) in hits.iter_mut().zip(rays) {
@@ -41,8 +43,9 @@ impl Scene {
             }
             return;
         }
-        let mut triangles = [None; 8];
-        for (rays, hits) in rays.chunks(8).zip(hits.chunks_mut(8)) {
+        let mut triangles = [None; MAX_PACKET_WIDTH];
+        let width = packet_width();
+        for (rays, hits) in rays.chunks(width).zip(hits.chunks_mut(width)) {
             let triangles = &mut triangles[..rays.len()];
             self.geometry.bvh.intersect_packet(rays, triangles);
             for ((hit, ray), triangle) in hits.iter_mut().zip(rays).zip(triangles.iter()) {
@@ -51,7 +54,7 @@ impl Scene {
         }
     }
 
-    /// `occluded` for every ray of `rays`, eight at a time as
+    /// `occluded` for every ray of `rays`, `packet_width()` at a time as
     /// `intersect_packet`.
     pub fn occluded_packet(&self, rays: &[Ray], blocked: &mut [bool]) {
         if !self.cutouts.is_empty() || !self.geometry.bvh.prefers_packets() {
@@ -60,7 +63,8 @@ impl Scene {
             }
             return;
         }
-        for (rays, blocked) in rays.chunks(8).zip(blocked.chunks_mut(8)) {
+        let width = packet_width();
+        for (rays, blocked) in rays.chunks(width).zip(blocked.chunks_mut(width)) {
             self.geometry.bvh.occluded_packet(rays, blocked);
         }
         if !self.geometry.spheres.is_empty() {

@@ -114,6 +114,7 @@ impl Bvh {
 
 mod build;
 mod packet;
+pub use packet::{keep_packets_to_avx2, packet_width, MAX_PACKET_WIDTH};
 mod traverse;
 
 use build::{build_boxes, pack_leaves};

@@ -1,6 +1,7 @@
-//! Eight rays walking a small tree together, one ray to a lane: each box
-//! and each triangle is loaded once and tested against all eight rays in
-//! one run of AVX2 arithmetic. A single ray's walk spends most of its
+//! Eight rays (AVX2) or sixteen (AVX-512, where the CPU has it) walking a
+//! small tree together, one ray to a lane: each box and each triangle is
+//! loaded once and tested against all the rays in one run of SIMD
+//! arithmetic. A single ray's walk spends most of its
 //! instructions on its own bookkeeping (its sheared ray, sorting the
 //! children it meets, a leaf at a time); in a tree that fits the
 //! first-level cache that bookkeeping, not memory, is its cost. Eight
@@ -16,13 +17,44 @@
 use super::{Bvh, Ray};
 use crate::geometry::triangle::TriangleHit;
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::geometry::lanes::{avx512, F32x16, F32x8};
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use walk::RayPacket;
+
 /// The largest tree walked by packets of rays (`prefers_packets`).
 const MAX_PACKET_NODES: usize = 8;
 
+/// The most rays a packet holds: sixteen where the CPU has AVX-512
+/// (`packet_width`), eight otherwise.
+pub const MAX_PACKET_WIDTH: usize = 16;
+
+/// Rays a packet holds: sixteen, one AVX-512 register's lanes, where the
+/// CPU has AVX-512 (unless `keep_packets_to_avx2` was called); else eight
+/// (AVX2's). Fixed at its first call.
+pub fn packet_width() -> usize {
+    *PACKET_WIDTH.get_or_init(|| {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        if avx512::available() {
+            return 16;
+        }
+        8
+    })
+}
+
+static PACKET_WIDTH: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+
+/// Keeps packets to eight rays even where the CPU has AVX-512
+/// (`PRISM_AVX512=0`, to compare the two on one machine); before the
+/// first render. The images are the same bit for bit.
+pub fn keep_packets_to_avx2() {
+    let _ = PACKET_WIDTH.set(8);
+}
+
 impl Bvh {
-    /// Whether up to eight rays are better walked together
+    /// Whether a packet's rays are better walked together
     /// (`intersect_packet`) than one at a time: in trees of at most eight
-    /// nodes. The path tracer's instructions, packets against single rays
+    /// nodes (measured with eight-ray packets). The path tracer's instructions, packets against single rays
     /// (`tools/gen_cave.py`): the Cornell Box (one node) −11%, caves of 1,
     /// 5 and 8 nodes −8%, −5%, −4%, of 9 nodes −1% and +1%.
     pub fn prefers_packets(&self) -> bool {
@@ -30,48 +62,127 @@ impl Bvh {
             && self.nodes.len() <= MAX_PACKET_NODES
     }
 
-    /// `intersect` for up to eight rays (`hits[i]` answers `rays[i]`).
+    /// `intersect` for up to `packet_width()` rays (`hits[i]` answers
+    /// `rays[i]`).
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<(u32, TriangleHit)>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if rays.len() <= 8 && !self.nodes.is_empty() {
-            let mut packet = avx2::RayPacket::new(rays);
-            self.walk_packet::<false>(&mut packet, rays, |lane, hit| hits[lane] = Some(hit));
-            return;
+        if !self.nodes.is_empty() {
+            let found = |lane, hit| hits[lane] = Some(hit);
+            if rays.len() <= 8 {
+                return self.walk_eight::<false>(rays, found);
+            } else if rays.len() <= 16 && avx512::available() {
+                // SAFETY: the CPU has AVX-512F.
+                return unsafe { self.walk_sixteen::<false>(rays, found) };
+            }
         }
         for (hit, ray) in hits.iter_mut().zip(rays) {
             *hit = self.intersect(ray);
         }
     }
 
-    /// `occluded` for up to eight rays (`blocked[i]` answers `rays[i]`).
+    /// `occluded` for up to `packet_width()` rays (`blocked[i]` answers
+    /// `rays[i]`).
     pub fn occluded_packet(&self, rays: &[Ray], blocked: &mut [bool]) {
         assert_eq!(rays.len(), blocked.len(), "one answer per ray");
         blocked.fill(false);
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if rays.len() <= 8 && !self.nodes.is_empty() {
-            let mut packet = avx2::RayPacket::new(rays);
-            self.walk_packet::<true>(&mut packet, rays, |lane, _| blocked[lane] = true);
-            return;
+        if !self.nodes.is_empty() {
+            let found = |lane, _| blocked[lane] = true;
+            if rays.len() <= 8 {
+                return self.walk_eight::<true>(rays, found);
+            } else if rays.len() <= 16 && avx512::available() {
+                // SAFETY: the CPU has AVX-512F.
+                return unsafe { self.walk_sixteen::<true>(rays, found) };
+            }
         }
         for (b, ray) in blocked.iter_mut().zip(rays) {
             *b = self.occluded(ray);
         }
     }
+
+    /// The packet walk over eight lanes, as AVX2 instructions (out of
+    /// line: inlined into both callers, the Cornell Box took 0.5% more
+    /// instructions).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[inline(never)]
+    fn walk_eight<const ANY_HIT: bool>(
+        &self,
+        rays: &[Ray],
+        found: impl FnMut(usize, (u32, TriangleHit)),
+    ) {
+        let mut packet = RayPacket::<F32x8>::new(rays);
+        self.walk_packet::<ANY_HIT, F32x8>(&mut packet, rays, found);
+    }
+
+    /// The packet walk over sixteen lanes, compiled as AVX-512
+    /// instructions.
+    ///
+    /// # Safety
+    /// Only where the CPU has AVX-512F (`avx512::available`).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn walk_sixteen<const ANY_HIT: bool>(
+        &self,
+        rays: &[Ray],
+        found: impl FnMut(usize, (u32, TriangleHit)),
+    ) {
+        let mut packet = RayPacket::<F32x16>::new(rays);
+        self.walk_packet::<ANY_HIT, F32x16>(&mut packet, rays, found);
+    }
 }
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-mod avx2 {
+mod walk {
     use std::mem::MaybeUninit;
 
     use glam::Vec3;
 
     use super::super::traverse::RayLanes;
     use super::super::{Bvh, WideNode, WIDTH};
-    use crate::geometry::lanes::{F32x8, Lanes, Mask8};
+    use super::MAX_PACKET_WIDTH;
+    use crate::geometry::lanes::{F32x16, F32x8, Lanes};
     use crate::geometry::triangle::TriangleHit;
     use crate::geometry::triangle4::{test_sheared, LaneHits};
     use crate::geometry::{gamma, Ray};
+
+    /// Lanes a packet walks in: eight (AVX2) or sixteen (AVX-512).
+    pub trait PacketLanes: Lanes {
+        /// The rays' fields (`row`), a lane per ray; lanes past `rays`
+        /// hold `HARMLESS`.
+        fn columns(rays: &[Ray]) -> [Self; 8];
+    }
+
+    /// A ray's fields as the packet takes them: origin, direction, t_max
+    /// and the triangle test's bound on t (0 in free space).
+    #[inline(always)]
+    fn row(ray: &Ray) -> [f32; 8] {
+        let (o, d) = (ray.origin, ray.dir);
+        let free = if ray.in_free_space { 0.0 } else { 3.0 };
+        [o.x, o.y, o.z, d.x, d.y, d.z, ray.t_max, free]
+    }
+
+    /// The fields of a lane without a ray: +z from the origin.
+    const HARMLESS: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+
+    impl PacketLanes for F32x8 {
+        /// By a transpose in registers (a lane at a time cost the Cornell
+        /// Box's render 1.9% more instructions).
+        #[inline(always)]
+        fn columns(rays: &[Ray]) -> [F32x8; 8] {
+            F32x8::transpose(std::array::from_fn(|l| {
+                F32x8::from_array(rays.get(l).map_or(HARMLESS, row))
+            }))
+        }
+    }
+
+    impl PacketLanes for F32x16 {
+        #[inline(always)]
+        fn columns(rays: &[Ray]) -> [F32x16; 8] {
+            let rows: [[f32; 8]; 16] = std::array::from_fn(|l| rays.get(l).map_or(HARMLESS, row));
+            std::array::from_fn(|field| F32x16::from_array(std::array::from_fn(|l| rows[l][field])))
+        }
+    }
 
     /// Nodes waiting: a visit takes one and leaves at most WIDTH, so
     /// WIDTH − 1 more per level, as the single ray's walk bounds it.
@@ -79,7 +190,7 @@ mod avx2 {
 
     /// The packet's rays as single walks take them, for the lanes in `made`.
     struct Alone {
-        rays: [MaybeUninit<RayLanes>; 8],
+        rays: [MaybeUninit<RayLanes>; MAX_PACKET_WIDTH],
         made: u32,
     }
 
@@ -88,49 +199,40 @@ mod avx2 {
     /// for two, each a full eight-lane test.
     const FEW_LANES: u32 = 3;
 
-    /// Eight rays, a lane each: what the slab and triangle tests take.
-    pub struct RayPacket {
-        origin: [F32x8; 3],
-        inv_dir: [F32x8; 3],
+    /// A packet's rays, a lane each: what the slab and triangle tests take.
+    pub struct RayPacket<L: Lanes> {
+        origin: [L; 3],
+        inv_dir: [L; 3],
         /// Lanes whose direction's largest axis is x, and y (the others':
         /// z): the triangle test's permutation (`RayShear`).
-        major_x: Mask8,
-        major_y: Mask8,
-        sx: F32x8,
-        sy: F32x8,
-        sz: F32x8,
-        t_bound_factor: F32x8,
+        major_x: L::Mask,
+        major_y: L::Mask,
+        sx: L,
+        sy: L,
+        sz: L,
+        t_bound_factor: L,
         /// The closest hit so far, or the ray's own end.
-        t_max: F32x8,
+        t_max: L,
         /// Lanes that hold a ray that may meet something.
         live: u32,
     }
 
-    impl RayPacket {
+    impl<L: PacketLanes> RayPacket<L> {
+        #[inline(always)]
         pub fn new(rays: &[Ray]) -> Self {
-            debug_assert!(rays.len() <= 8);
-            // A row a ray, transposed into a lane a ray. Lanes without a
-            // ray, or with one that is not finite (which, as
-            // `Bvh::may_meet` says, meets nothing), hold a harmless ray (+z
-            // from the origin) and stay out of `live`.
-            let harmless = F32x8::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
-            let rows = std::array::from_fn(|l| match rays.get(l) {
-                Some(ray) => {
-                    let (o, d) = (ray.origin, ray.dir);
-                    let free = if ray.in_free_space { 0.0 } else { 3.0 };
-                    F32x8::from_array([o.x, o.y, o.z, d.x, d.y, d.z, ray.t_max, free])
-                }
-                None => harmless,
-            });
-            let [ox, oy, oz, dx, dy, dz, t_max, t_bound_factor] = F32x8::transpose(rows);
+            debug_assert!(rays.len() <= L::WIDTH);
+            // A ray a lane. Lanes without a ray, or with one that is not
+            // finite (which, as `Bvh::may_meet` says, meets nothing), hold a
+            // harmless ray and stay out of `live`.
+            let [ox, oy, oz, dx, dy, dz, t_max, t_bound_factor] = L::columns(rays);
             // 0·x is ±0 for finite x, NaN for infinities and NaN.
-            let zero = F32x8::splat(0.0);
-            let is_finite = |v: F32x8| (v * zero).cmpeq(zero);
+            let zero = L::splat(0.0);
+            let is_finite = |v: L| (v * zero).cmpeq(zero);
             let finite = [oy, oz, dx, dy, dz]
                 .into_iter()
                 .fold(is_finite(ox), |all, v| all & is_finite(v));
-            let live = F32x8::bits(finite) & ((1u32 << rays.len()) - 1);
-            let keep = |v: F32x8, otherwise: f32| F32x8::select(finite, v, F32x8::splat(otherwise));
+            let live = L::bits(finite) & ((1u32 << rays.len()) - 1);
+            let keep = |v: L, otherwise: f32| L::select(finite, v, L::splat(otherwise));
             let [ox, oy, oz, dx, dy] = [ox, oy, oz, dx, dy].map(|v| keep(v, 0.0));
             let dz = keep(dz, 1.0);
             // `RayShear::new` lane by lane: the largest axis of the
@@ -138,12 +240,12 @@ mod avx2 {
             let (ax, ay, az) = (dx.abs(), dy.abs(), dz.abs());
             let major_x = ax.cmpgt(ay) & ax.cmpgt(az);
             let major_y = !major_x & ay.cmpgt(az);
-            let pick = |on_x: F32x8, on_y: F32x8, on_z: F32x8| {
-                F32x8::select(major_x, on_x, F32x8::select(major_y, on_y, on_z))
+            let pick = |on_x: L, on_y: L, on_z: L| {
+                L::select(major_x, on_x, L::select(major_y, on_y, on_z))
             };
             let (d_kx, d_ky, d_kz) = (pick(dy, dz, dx), pick(dz, dx, dy), pick(dx, dy, dz));
             // −1·x is the exact negation, zeros included (0 − x is not).
-            let (minus_one, one) = (F32x8::splat(-1.0), F32x8::splat(1.0));
+            let (minus_one, one) = (L::splat(-1.0), L::splat(1.0));
             RayPacket {
                 origin: [ox, oy, oz],
                 inv_dir: [one / dx, one / dy, one / dz],
@@ -162,42 +264,53 @@ mod avx2 {
         /// t_max (`traverse::slab_test`'s operations, lane by lane).
         #[inline(always)]
         fn slab(&self, node: &WideNode, i: usize, lanes: u32) -> u32 {
-            let (o, id) = (&self.origin, &self.inv_dir);
-            let slab = |bound: f32, axis: usize| (F32x8::splat(bound) - o[axis]) * id[axis];
-            let (tx0, tx1) = (slab(node.lo[0][i], 0), slab(node.hi[0][i], 0));
-            let (ty0, ty1) = (slab(node.lo[1][i], 1), slab(node.hi[1][i], 1));
-            let (tz0, tz1) = (slab(node.lo[2][i], 2), slab(node.hi[2][i], 2));
+            let (tx0, tx1) = (self.slab_t(node.lo[0][i], 0), self.slab_t(node.hi[0][i], 0));
+            let (ty0, ty1) = (self.slab_t(node.lo[1][i], 1), self.slab_t(node.hi[1][i], 1));
+            let (tz0, tz1) = (self.slab_t(node.lo[2][i], 2), self.slab_t(node.hi[2][i], 2));
             let entry = tx0
                 .min(tx1)
                 .max(ty0.min(ty1))
                 .max(tz0.min(tz1))
-                .max(F32x8::splat(0.0));
-            let far_scale = F32x8::splat(1.0 + 2.0 * gamma(3));
+                .max(L::splat(0.0));
+            let far_scale = L::splat(1.0 + 2.0 * gamma(3));
             let exit =
                 (tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)) * far_scale).min(self.t_max);
-            let hit = entry.cmple(exit) & entry.cmplt(F32x8::splat(f32::INFINITY));
-            F32x8::bits(hit) & lanes
+            let hit = entry.cmple(exit) & entry.cmplt(L::splat(f32::INFINITY));
+            L::bits(hit) & lanes
+        }
+
+        /// Where each lane's ray crosses the plane `bound` of `axis`. (The
+        /// hot helpers are functions, not closures: a closure would not be
+        /// compiled for AVX-512 with the walk that inlines it.)
+        #[inline(always)]
+        fn slab_t(&self, bound: f32, axis: usize) -> L {
+            (L::splat(bound) - self.origin[axis]) * self.inv_dir[axis]
+        }
+
+        /// Per lane, `on_x`, `on_y` or `on_z` as the ray's largest axis is x,
+        /// y or z.
+        #[inline(always)]
+        fn pick(&self, on_x: L, on_y: L, on_z: L) -> L {
+            L::select(self.major_x, on_x, L::select(self.major_y, on_y, on_z))
+        }
+
+        /// Vertex `v` translated to each lane's ray origin, permuted so
+        /// that the ray runs along z, and sheared.
+        #[inline(always)]
+        fn shear(&self, v: Vec3) -> (L, L, L) {
+            let dx = L::splat(v.x) - self.origin[0];
+            let dy = L::splat(v.y) - self.origin[1];
+            let dz = L::splat(v.z) - self.origin[2];
+            let z = self.pick(dx, dy, dz);
+            let x = self.pick(dy, dz, dx) + self.sx * z;
+            let y = self.pick(dz, dx, dy) + self.sy * z;
+            (x, y, z)
         }
 
         /// The lanes of `lanes` whose rays hit `tri` within (0, t_max).
         #[inline(always)]
-        fn test(&self, tri: &[Vec3; 3], lanes: u32) -> Option<LaneHits<F32x8>> {
-            let vertex = |v: Vec3| {
-                let d = [
-                    F32x8::splat(v.x) - self.origin[0],
-                    F32x8::splat(v.y) - self.origin[1],
-                    F32x8::splat(v.z) - self.origin[2],
-                ];
-                // Permute each lane so that its ray's largest axis is z.
-                let pick = |on_x: F32x8, on_y: F32x8, on_z: F32x8| {
-                    F32x8::select(self.major_x, on_x, F32x8::select(self.major_y, on_y, on_z))
-                };
-                let z = pick(d[0], d[1], d[2]);
-                let x = pick(d[1], d[2], d[0]) + self.sx * z;
-                let y = pick(d[2], d[0], d[1]) + self.sy * z;
-                (x, y, z)
-            };
-            let sheared = [vertex(tri[0]), vertex(tri[1]), vertex(tri[2])];
+        fn test(&self, tri: &[Vec3; 3], lanes: u32) -> Option<LaneHits<L>> {
+            let sheared = [self.shear(tri[0]), self.shear(tri[1]), self.shear(tri[2])];
             test_sheared(sheared, self.sz, self.t_bound_factor, self.t_max, lanes)
         }
     }
@@ -206,9 +319,12 @@ mod avx2 {
         /// Walks the packet's rays (`rays`, lane by lane) through the tree
         /// together; `found(lane, hit)` hears of each closer hit of a lane
         /// (with `ANY_HIT`, of its first hit, after which the lane stops).
-        pub(in crate::geometry::bvh) fn walk_packet<const ANY_HIT: bool>(
+        /// Inlined into its callers, so that the sixteen-lane walk is
+        /// compiled for AVX-512 with the function that calls it.
+        #[inline(always)]
+        pub(in crate::geometry::bvh) fn walk_packet<const ANY_HIT: bool, L: PacketLanes>(
             &self,
-            packet: &mut RayPacket,
+            packet: &mut RayPacket<L>,
             rays: &[Ray],
             mut found: impl FnMut(usize, (u32, TriangleHit)),
         ) {
@@ -217,7 +333,7 @@ mod avx2 {
             // cheaper (`FEW_LANES`); left uninitialised until then (zeroing
             // 8 of them per walk cost more than the tests saved).
             let mut alone = Alone {
-                rays: [const { MaybeUninit::uninit() }; 8],
+                rays: [const { MaybeUninit::uninit() }; MAX_PACKET_WIDTH],
                 made: 0,
             };
             // Left uninitialised but for the root: entries below `top` are
@@ -239,7 +355,7 @@ mod avx2 {
                         stack[top].write(first);
                         top += 1;
                     } else if lanes.count_ones() <= FEW_LANES {
-                        self.test_leaf_alone::<ANY_HIT>(
+                        self.test_leaf_alone::<ANY_HIT, L>(
                             packet,
                             rays,
                             &mut alone,
@@ -248,7 +364,7 @@ mod avx2 {
                             &mut found,
                         );
                     } else {
-                        self.test_leaf_together::<ANY_HIT>(
+                        self.test_leaf_together::<ANY_HIT, L>(
                             packet,
                             (first, count),
                             lanes,
@@ -261,9 +377,9 @@ mod avx2 {
 
         /// Tests the leaf's triangles against the rays of `lanes` at once.
         #[inline(always)]
-        fn test_leaf_together<const ANY_HIT: bool>(
+        fn test_leaf_together<const ANY_HIT: bool, L: PacketLanes>(
             &self,
-            packet: &mut RayPacket,
+            packet: &mut RayPacket<L>,
             (first, count): (u32, u32),
             lanes: u32,
             found: &mut impl FnMut(usize, (u32, TriangleHit)),
@@ -283,8 +399,8 @@ mod avx2 {
                 if ANY_HIT {
                     packet.live &= !hits.lanes;
                 } else {
-                    let closer = F32x8::mask(hits.lanes);
-                    packet.t_max = F32x8::select(closer, hits.t, packet.t_max);
+                    let closer = L::mask(hits.lanes);
+                    packet.t_max = L::select(closer, hits.t, packet.t_max);
                 }
             }
         }
@@ -292,9 +408,9 @@ mod avx2 {
         /// Tests the leaf against each ray of `lanes` on its own, its
         /// triangles four or eight at a time, as the single walk does.
         #[inline(always)]
-        fn test_leaf_alone<const ANY_HIT: bool>(
+        fn test_leaf_alone<const ANY_HIT: bool, L: PacketLanes>(
             &self,
-            packet: &mut RayPacket,
+            packet: &mut RayPacket<L>,
             rays: &[Ray],
             alone: &mut Alone,
             leaf: (u32, u32),
@@ -320,7 +436,7 @@ mod avx2 {
                     }
                 }
             }
-            packet.t_max = F32x8::from_array(t_max);
+            packet.t_max = L::from_array(t_max);
         }
     }
 }
@@ -339,7 +455,9 @@ mod tests {
         ((*s >> 40) as f32) / (1u64 << 24) as f32
     }
 
-    /// Eight rays walked together find what each finds alone (in a tree of
+    /// Up to sixteen rays walked together (eight to an AVX2 packet, or
+    /// sixteen to an AVX-512 one where the CPU has it) find what each finds
+    /// alone (in a tree of
     /// several nodes, though packets are only chosen for one): the same
     /// triangle and hit, bit for bit (or, at a shared edge, another
     /// triangle at the same distance), and the same occlusion. Rays start
@@ -357,8 +475,8 @@ mod tests {
             .collect();
         let (bvh, _) = Bvh::build(&tris);
         let mut compared = 0;
-        for round in 0..400 {
-            let n = 1 + round % 8;
+        for round in 0..800 {
+            let n = 1 + round % 16;
             let rays: Vec<Ray> = (0..n)
                 .map(|k| {
                     let o = v(6.0) - Vec3::splat(1.0);
@@ -397,6 +515,6 @@ mod tests {
                 compared += usize::from(alone.is_some());
             }
         }
-        assert!(compared > 300, "only {compared} rays hit anything");
+        assert!(compared > 1200, "only {compared} rays hit anything");
     }
 }
