@@ -302,18 +302,18 @@ mod avx {
 }
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-pub use avx512::{F32x16, Mask16};
+pub(crate) use avx512::F32x16;
 
 /// Sixteen lanes in one AVX-512 register. The build targets x86-64-v3, so
 /// these operations are inlined as AVX-512 instructions only into
 /// functions compiled with `#[target_feature(enable = "avx512f")]`, which
 /// run only where the CPU has it (`avx512::available`).
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-pub mod avx512 {
-    // SAFETY (every `unsafe` below): the intrinsics need AVX-512F, and
-    // values of these types are only made in code that runs where the CPU
-    // has it (`available`); none touches memory but its own locals and
-    // the slices it is given.
+pub(crate) mod avx512 {
+    // SAFETY (every `unsafe` below): the intrinsics need AVX-512F. These
+    // types are private to the crate, and only code behind `available`
+    // makes them (`Bvh::walk_sixteen` and a test); none touches memory but
+    // its own locals and the slices it is given.
     use std::arch::x86_64::*;
     use std::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
 

@@ -1,7 +1,7 @@
 //! Rays traced together: as a stream, whose walks take turns so that
 //! their waits for memory overlap (big trees), or eight or sixteen at a
-//! time (`packet_width`) through a small tree, one to a SIMD lane. Both answer as `intersect` and
-//! `occluded` answer each ray.
+//! time (`packet_width`) through a small tree, one to a SIMD lane. Both
+//! answer as `intersect` and `occluded` answer each ray.
 
 use super::{Scene, SurfaceHit};
 use crate::geometry::bvh::{packet_width, MAX_PACKET_WIDTH};

@@ -54,9 +54,9 @@ pub fn keep_packets_to_avx2() {
 impl Bvh {
     /// Whether a packet's rays are better walked together
     /// (`intersect_packet`) than one at a time: in trees of at most eight
-    /// nodes (measured with eight-ray packets). The path tracer's instructions, packets against single rays
-    /// (`tools/gen_cave.py`): the Cornell Box (one node) −11%, caves of 1,
-    /// 5 and 8 nodes −8%, −5%, −4%, of 9 nodes −1% and +1%.
+    /// nodes. The path tracer's instructions with eight-ray packets against
+    /// single rays (`tools/gen_cave.py`): the Cornell Box (one node) −11%,
+    /// caves of 1, 5 and 8 nodes −8%, −5%, −4%, of 9 nodes −1% and +1%.
     pub fn prefers_packets(&self) -> bool {
         cfg!(all(target_arch = "x86_64", target_feature = "avx2"))
             && self.nodes.len() <= MAX_PACKET_NODES
@@ -166,8 +166,8 @@ mod walk {
     const HARMLESS: [f32; 8] = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
 
     impl PacketLanes for F32x8 {
-        /// By a transpose in registers (a lane at a time cost the Cornell
-        /// Box's render 1.9% more instructions).
+        /// By a transpose in registers (filling the lanes one by one cost
+        /// the Cornell Box's render 0.4% more instructions).
         #[inline(always)]
         fn columns(rays: &[Ray]) -> [F32x8; 8] {
             F32x8::transpose(std::array::from_fn(|l| {
