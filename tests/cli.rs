@@ -561,16 +561,22 @@ fn the_baseline_build_renders_the_same_image() {
         images.push(std::fs::read(stem.with_extension("exr")).unwrap());
     }
     assert!(images[0] == images[1], "the two builds' images differ");
+    refuses_environment_value("PRISM_BASELINE", &scene);
+}
+
+/// A render with `var=yes` in its environment is refused with a message
+/// that names the variable and its value.
+fn refuses_environment_value(var: &str, scene: &Path) {
     let out = prism()
-        .env("PRISM_BASELINE", "yes")
+        .env(var, "yes")
         .arg("render")
-        .arg(&scene)
+        .arg(scene)
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(
-        stderr.contains("PRISM_BASELINE=\"yes\" is neither 0 nor 1"),
+        stderr.contains(&format!("{var}=\"yes\" is neither 0 nor 1")),
         "{stderr}"
     );
 }
@@ -609,18 +615,7 @@ fn sixteen_ray_packets_render_what_eight_do() {
         images[0] == images[1],
         "eight- and sixteen-ray packets' images differ"
     );
-    let out = prism()
-        .env("PRISM_AVX512", "yes")
-        .arg("render")
-        .arg(&scene)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains("PRISM_AVX512=\"yes\" is neither 0 nor 1"),
-        "{stderr}"
-    );
+    refuses_environment_value("PRISM_AVX512", &scene);
 }
 
 #[test]

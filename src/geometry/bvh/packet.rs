@@ -66,15 +66,8 @@ impl Bvh {
     /// `rays[i]`).
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<(u32, TriangleHit)>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if !self.nodes.is_empty() {
-            let found = |lane, hit| hits[lane] = Some(hit);
-            if rays.len() <= 8 {
-                return self.walk_eight::<false>(rays, found);
-            } else if rays.len() <= 16 && avx512::available() {
-                // SAFETY: the CPU has AVX-512F.
-                return unsafe { self.walk_sixteen::<false>(rays, found) };
-            }
+        if self.walk_as_packet::<false>(rays, |lane, hit| hits[lane] = Some(hit)) {
+            return;
         }
         for (hit, ray) in hits.iter_mut().zip(rays) {
             *hit = self.intersect(ray);
@@ -86,19 +79,36 @@ impl Bvh {
     pub fn occluded_packet(&self, rays: &[Ray], blocked: &mut [bool]) {
         assert_eq!(rays.len(), blocked.len(), "one answer per ray");
         blocked.fill(false);
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if !self.nodes.is_empty() {
-            let found = |lane, _| blocked[lane] = true;
-            if rays.len() <= 8 {
-                return self.walk_eight::<true>(rays, found);
-            } else if rays.len() <= 16 && avx512::available() {
-                // SAFETY: the CPU has AVX-512F.
-                return unsafe { self.walk_sixteen::<true>(rays, found) };
-            }
+        if self.walk_as_packet::<true>(rays, |lane, _| blocked[lane] = true) {
+            return;
         }
         for (b, ray) in blocked.iter_mut().zip(rays) {
             *b = self.occluded(ray);
         }
+    }
+
+    /// Walks `rays` together as one packet, eight to AVX2 lanes or sixteen
+    /// to AVX-512 ones where the CPU has it; false (nothing walked) where
+    /// the build, the CPU or an empty tree leaves them to single walks.
+    #[inline(always)]
+    fn walk_as_packet<const ANY_HIT: bool>(
+        &self,
+        rays: &[Ray],
+        found: impl FnMut(usize, (u32, TriangleHit)),
+    ) -> bool {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        if !self.nodes.is_empty() {
+            if rays.len() <= 8 {
+                self.walk_eight::<ANY_HIT>(rays, found);
+                return true;
+            } else if rays.len() <= 16 && avx512::available() {
+                // SAFETY: the CPU has AVX-512F.
+                unsafe { self.walk_sixteen::<ANY_HIT>(rays, found) };
+                return true;
+            }
+        }
+        let _ = (rays, found);
+        false
     }
 
     /// The packet walk over eight lanes, as AVX2 instructions (out of
