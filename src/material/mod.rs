@@ -10,6 +10,7 @@ pub mod dielectric;
 mod diffuse;
 pub mod fluorescence;
 pub mod fresnel;
+pub mod hemisphere;
 pub mod ior;
 pub mod metals;
 pub mod microfacet;
@@ -27,6 +28,7 @@ pub use cutout::{Cutout, CutoutMode};
 pub use dielectric::DielectricLobe;
 pub use diffuse::DiffuseLobe;
 pub use fluorescence::Fluorescence;
+pub use hemisphere::{cosine_hemisphere, cosine_hemisphere_xyz};
 pub use ior::Ior;
 pub use pbr::PbrLobe;
 
@@ -554,22 +556,4 @@ pub fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
         geom.ns
     };
     (Frame::from_normal(ns), ng)
-}
-
-/// Cosine-weighted direction on the +z hemisphere (Malley's method over a
-/// concentric disk sample).
-pub fn cosine_hemisphere(u: (f32, f32)) -> Vec3 {
-    let (ox, oy) = (2.0 * u.0 - 1.0, 2.0 * u.1 - 1.0);
-    let (r, phi) = if ox == 0.0 && oy == 0.0 {
-        (0.0, 0.0)
-    } else if ox.abs() > oy.abs() {
-        (ox, std::f32::consts::FRAC_PI_4 * (oy / ox))
-    } else {
-        (
-            oy,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (ox / oy),
-        )
-    };
-    let (x, y) = (r * phi.cos(), r * phi.sin());
-    Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
 }
