@@ -5,12 +5,6 @@ use glam::Vec3;
 
 /// Cosine-weighted direction on the +z hemisphere (Malley's method over a
 /// concentric disk sample).
-pub fn cosine_hemisphere(u: (f32, f32)) -> Vec3 {
-    let (x, y, z) = cosine_hemisphere_xyz(u.0, u.1);
-    Vec3::new(x, y, z)
-}
-
-/// `cosine_hemisphere` as three numbers.
 ///
 /// Shirley and Chiu's concentric map: the wedge |x| > |y| takes the angle
 /// π/4·(y/x), the other π/2 − π/4·(x/y), whose cosine and sine are the
@@ -19,8 +13,8 @@ pub fn cosine_hemisphere(u: (f32, f32)) -> Vec3 {
 /// single precision: no libm call. (Choosing the wedge by vector selects
 /// instead of the branches the compiler makes of these measured the same.)
 #[inline(always)]
-pub fn cosine_hemisphere_xyz(u0: f32, u1: f32) -> (f32, f32, f32) {
-    let (ox, oy) = (2.0 * u0 - 1.0, 2.0 * u1 - 1.0);
+pub fn cosine_hemisphere(u: (f32, f32)) -> Vec3 {
+    let (ox, oy) = (2.0 * u.0 - 1.0, 2.0 * u.1 - 1.0);
     let first_wedge = ox.abs() > oy.abs();
     let (r, other) = if first_wedge { (ox, oy) } else { (oy, ox) };
     // r is 0 only at the disk's centre (then both are), where any angle will do.
@@ -38,7 +32,7 @@ pub fn cosine_hemisphere_xyz(u0: f32, u1: f32) -> (f32, f32, f32) {
         (r * sin, r * cos)
     };
     // x² + y² is r²: z from r alone, without waiting on the polynomials.
-    (x, y, (1.0 - r * r).max(0.0).sqrt())
+    Vec3::new(x, y, (1.0 - r * r).max(0.0).sqrt())
 }
 
 #[cfg(test)]

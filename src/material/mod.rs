@@ -28,7 +28,7 @@ pub use cutout::{Cutout, CutoutMode};
 pub use dielectric::DielectricLobe;
 pub use diffuse::DiffuseLobe;
 pub use fluorescence::Fluorescence;
-pub use hemisphere::{cosine_hemisphere, cosine_hemisphere_xyz};
+pub use hemisphere::cosine_hemisphere;
 pub use ior::Ior;
 pub use pbr::PbrLobe;
 
