@@ -103,7 +103,7 @@ impl AreaLight {
     }
 
     /// Radiance leaving a point with texture coordinates `uv` towards `w`
-    /// (unit, pointing away from the light).
+    /// (pointing away from the light; only its side counts, not its length).
     #[inline]
     pub fn l(&self, uv: Vec2, w: Vec3, wl: &SampledWavelengths) -> SampledSpectrum {
         self.l_by(uv, w, wl, |s| s.sample(wl))
@@ -172,7 +172,10 @@ impl AreaLight {
             return None;
         }
         let wi = to_light / dist2.sqrt();
-        let li = self.sampled_l(lp.uv, -wi, wl, sample);
+        // Which side the light leaves from is the sign of -to_light's
+        // cosine, the same as -wi's: the emission need not wait on the
+        // division.
+        let li = self.sampled_l(lp.uv, -to_light, wl, sample);
         let cos_light = lp.n.dot(wi).abs();
         if li == SampledSpectrum::ZERO || cos_light == 0.0 {
             return None;
