@@ -244,8 +244,12 @@ impl Lane {
         let wo = -self.ray.dir;
         match &scene.materials[hit.material as usize] {
             Material::Diffuse { reflectance } => {
+                // The bounce's numbers and its local direction first: they
+                // need no surface, so they overlap with the surface's work.
+                let u_light = self.sampler.next_4d();
+                let drawn = Diffuse::draw(self.sampler.next_4d());
                 let surface = Diffuse::at(reflectance, hit, wo, &self.wl, &mut self.spectra);
-                self.bounce(tracer, scene, hit, &surface)
+                self.bounce(tracer, scene, hit, &surface, (u_light, drawn))
             }
             material => {
                 let bsdf = bsdf_at(scene, hit, wo, &mut self.wl, SampledSpectrum::ONE);
@@ -258,29 +262,34 @@ impl Lane {
                     self.beta *= material.fluoresce(hit.uv, &mut self.wl, u);
                     self.spectra.forget();
                 }
-                self.bounce(tracer, scene, hit, &General { bsdf, wo })
+                let u_light = self.sampler.next_4d();
+                let drawn = General::draw(self.sampler.next_4d());
+                self.bounce(tracer, scene, hit, &General { bsdf, wo }, (u_light, drawn))
             }
         }
     }
 
-    /// From `hit`, whose BSDF is `surface`: the light sample, the bounce
-    /// and Russian roulette; whether the path goes on.
+    /// From `hit`, whose BSDF is `surface`: the light sample with the
+    /// numbers `u_light`, the bounce from `drawn` and Russian roulette;
+    /// whether the path goes on. The light sample's numbers are drawn
+    /// whatever happens, as the one-path walk draws them, so later bounces
+    /// use the same ones. The caller draws both, and takes the bounce's
+    /// first steps, before it makes the surface: that work then overlaps
+    /// with the surface's and the light sample's instead of waiting behind
+    /// their branches and divisions (Cornell Box CPU −2%).
     #[inline(always)]
-    fn bounce(
+    fn bounce<S: Surface>(
         &mut self,
         tracer: &PathTracer,
         scene: &Scene,
         hit: &SurfaceHit,
-        surface: &impl Surface,
+        surface: &S,
+        (u_light, drawn): ([f32; 4], S::Drawn),
     ) -> bool {
-        // The light sample's numbers are drawn whatever happens, as the
-        // one-path walk draws them, so later bounces use the same ones.
-        let u_light = self.sampler.next_4d();
         if tracer.strategy != Strategy::Bsdf && !surface.is_specular() {
             self.sample_light(tracer, scene, hit, surface, u_light);
         }
-        let u_bounce = self.sampler.next_4d();
-        let Some((wi, weight, pdf, specular)) = surface.sample(u_bounce) else {
+        let Some((wi, weight, pdf, specular)) = surface.sample(drawn) else {
             return false;
         };
         self.beta *= weight;
@@ -291,7 +300,7 @@ impl Lane {
             1.0,
             self.depth,
             tracer.rr_depth,
-            u_bounce[3],
+            drawn.roulette(),
         )
     }
 
@@ -397,10 +406,44 @@ trait Surface {
     /// f·|cos θ| towards `wi` and the density of sampling `wi`.
     fn eval(&self, wi: Vec3) -> (SampledSpectrum, f32);
 
-    /// A direction drawn with the numbers `u` (u₀, u₁ for the direction,
-    /// u₂ for the lobe): the direction, f·|cos θ|/pdf, the density and
-    /// whether a Dirac lobe drew it; None where the path ends.
-    fn sample(&self, u: [f32; 4]) -> Option<(Vec3, SampledSpectrum, f32, bool)>;
+    /// What a bounce starts from, given its numbers `u` (u₀, u₁ for the
+    /// direction, u₂ for the lobe, u₃ for Russian roulette).
+    type Drawn: Drawn;
+
+    /// The steps of a bounce that need only its numbers.
+    fn draw(u: [f32; 4]) -> Self::Drawn;
+
+    /// A direction drawn from `drawn`: the direction, f·|cos θ|/pdf, the
+    /// density and whether a Dirac lobe drew it; None where the path ends.
+    fn sample(&self, drawn: Self::Drawn) -> Option<(Vec3, SampledSpectrum, f32, bool)>;
+}
+
+/// A bounce's numbers as [`Surface::draw`] leaves them.
+trait Drawn: Copy {
+    /// The number Russian roulette takes (u₃).
+    fn roulette(&self) -> f32;
+}
+
+impl Drawn for [f32; 4] {
+    #[inline(always)]
+    fn roulette(&self) -> f32 {
+        self[3]
+    }
+}
+
+/// A diffuse bounce's cosine-weighted direction in the local frame (before
+/// it is turned to `wo`'s side), and the roulette's number.
+#[derive(Clone, Copy)]
+struct CosineDrawn {
+    local: Vec3,
+    u_rr: f32,
+}
+
+impl Drawn for CosineDrawn {
+    #[inline(always)]
+    fn roulette(&self) -> f32 {
+        self.u_rr
+    }
 }
 
 /// A metal, glTF's metallic-roughness or a fluorescent surface, by the
@@ -420,6 +463,13 @@ impl Surface for General {
     fn eval(&self, wi: Vec3) -> (SampledSpectrum, f32) {
         let e = self.bsdf.eval(self.wo, wi, TransportMode::Radiance);
         (e.f * self.bsdf.cos_theta(wi), e.pdf)
+    }
+
+    type Drawn = [f32; 4];
+
+    #[inline(always)]
+    fn draw(u: [f32; 4]) -> [f32; 4] {
+        u
     }
 
     #[inline(always)]
@@ -495,11 +545,21 @@ impl Surface for Diffuse {
         (self.f * cos, cos * FRAC_1_PI)
     }
 
-    /// A cosine-weighted direction; None where it is not a reflection on
-    /// `wo`'s side.
+    type Drawn = CosineDrawn;
+
     #[inline(always)]
-    fn sample(&self, [u0, u1, _, _]: [f32; 4]) -> Option<(Vec3, SampledSpectrum, f32, bool)> {
-        let mut wi_local = cosine_hemisphere((u0, u1));
+    fn draw([u0, u1, _, u_rr]: [f32; 4]) -> CosineDrawn {
+        CosineDrawn {
+            local: cosine_hemisphere((u0, u1)),
+            u_rr,
+        }
+    }
+
+    /// The cosine-weighted direction turned to `wo`'s side; None where it
+    /// is not a reflection on `wo`'s side.
+    #[inline(always)]
+    fn sample(&self, drawn: CosineDrawn) -> Option<(Vec3, SampledSpectrum, f32, bool)> {
+        let mut wi_local = drawn.local;
         if self.wo_local.z < 0.0 {
             wi_local.z = -wi_local.z;
         }
