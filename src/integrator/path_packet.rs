@@ -35,7 +35,7 @@ use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::integrator::interface::{bsdf_at, MAX_FALSE_INTERSECTIONS};
-use crate::light::{Light, LightSource};
+use crate::light::{Light, LightPoint, LightSource};
 use crate::material::{
     cosine_hemisphere, facing_frame, Bsdf, Material, Reflectance, ShadingGeometry, TransportMode,
 };
@@ -244,12 +244,12 @@ impl Lane {
         let wo = -self.ray.dir;
         match &scene.materials[hit.material as usize] {
             Material::Diffuse { reflectance } => {
-                // The bounce's numbers and its local direction first: they
-                // need no surface, so they overlap with the surface's work.
-                let u_light = self.sampler.next_4d();
+                // The light sample's and the bounce's numbers, and what they
+                // decide alone, first: they overlap with the surface's work.
+                let light = LightDrawn::new(scene, self.sampler.next_4d());
                 let drawn = Diffuse::draw(self.sampler.next_4d());
                 let surface = Diffuse::at(reflectance, hit, wo, &self.wl, &mut self.spectra);
-                self.bounce(tracer, scene, hit, &surface, (u_light, drawn))
+                self.bounce(tracer, hit, &surface, (light, drawn))
             }
             material => {
                 let bsdf = bsdf_at(scene, hit, wo, &mut self.wl, SampledSpectrum::ONE);
@@ -262,32 +262,32 @@ impl Lane {
                     self.beta *= material.fluoresce(hit.uv, &mut self.wl, u);
                     self.spectra.forget();
                 }
-                let u_light = self.sampler.next_4d();
+                let light = LightDrawn::new(scene, self.sampler.next_4d());
                 let drawn = General::draw(self.sampler.next_4d());
-                self.bounce(tracer, scene, hit, &General { bsdf, wo }, (u_light, drawn))
+                self.bounce(tracer, hit, &General { bsdf, wo }, (light, drawn))
             }
         }
     }
 
-    /// From `hit`, whose BSDF is `surface`: the light sample with the
-    /// numbers `u_light`, the bounce from `drawn` and Russian roulette;
-    /// whether the path goes on. The light sample's numbers are drawn
-    /// whatever happens, as the one-path walk draws them, so later bounces
-    /// use the same ones. The caller draws both, and takes the bounce's
-    /// first steps, before it makes the surface: that work then overlaps
-    /// with the surface's and the light sample's instead of waiting behind
-    /// their branches and divisions (Cornell Box CPU −2%).
+    /// From `hit`, whose BSDF is `surface`: the light sample from `light`,
+    /// the bounce from `drawn` and Russian roulette; whether the path goes
+    /// on. The light sample's numbers are drawn whatever happens, as the
+    /// one-path walk draws them, so later bounces use the same ones. The
+    /// caller draws both, and takes the steps that need only the numbers
+    /// (the light and its point, the bounce's local direction), before it
+    /// makes the surface: that work then overlaps with the surface's and
+    /// the light sample's instead of waiting behind their branches and
+    /// divisions (Cornell Box CPU −4%).
     #[inline(always)]
     fn bounce<S: Surface>(
         &mut self,
         tracer: &PathTracer,
-        scene: &Scene,
         hit: &SurfaceHit,
         surface: &S,
-        (u_light, drawn): ([f32; 4], S::Drawn),
+        (light, drawn): (Option<LightDrawn>, S::Drawn),
     ) -> bool {
         if tracer.strategy != Strategy::Bsdf && !surface.is_specular() {
-            self.sample_light(tracer, scene, hit, surface, u_light);
+            self.sample_light(tracer, hit, surface, light);
         }
         let Some((wi, weight, pdf, specular)) = surface.sample(drawn) else {
             return false;
@@ -326,26 +326,31 @@ impl Lane {
         }
     }
 
-    /// Next-event estimation at `hit` with the numbers `u`: a point on a
-    /// light, weighed against BSDF sampling, its shadow ray left to trace.
+    /// Next-event estimation at `hit` from the light `drawn` (None where
+    /// there is none to choose): a point on it, weighed against BSDF
+    /// sampling, its shadow ray left to trace.
     fn sample_light(
         &mut self,
         tracer: &PathTracer,
-        scene: &Scene,
         hit: &SurfaceHit,
         surface: &impl Surface,
-        [p0, p1, u_light, _]: [f32; 4],
+        drawn: Option<LightDrawn>,
     ) {
-        let Some((light, pmf)) = scene.lights.choose(u_light) else {
+        let Some(LightDrawn {
+            light,
+            pmf,
+            u,
+            point,
+        }) = drawn
+        else {
             return;
         };
-        let light = scene.lights.get(light);
-        let sampled = match light {
-            Light::Area(area) => {
+        let sampled = match (light, point) {
+            (Light::Area(area), Some(lp)) => {
                 let spectra = &mut self.spectra;
-                area.sample_li_by(hit.p, (p0, p1), &self.wl, |s| spectra.sample(s, &self.wl))
+                area.li_from(lp, hit.p, &self.wl, |s| spectra.sample(s, &self.wl))
             }
-            _ => light.sample_li(hit.p, (p0, p1), &self.wl),
+            _ => light.sample_li(hit.p, u, &self.wl),
         };
         let Some(ls) = sampled else {
             return;
@@ -392,6 +397,37 @@ impl Lane {
             self.l += self.beta * le * weight;
         }
         false
+    }
+}
+
+/// A light sample's steps that need only its numbers: the light, the
+/// probability of choosing it and, on an area light, the point.
+#[derive(Clone, Copy)]
+struct LightDrawn<'s> {
+    light: &'s Light,
+    pmf: f32,
+    /// The point's numbers (for lights other than area lights).
+    u: (f32, f32),
+    point: Option<LightPoint>,
+}
+
+impl<'s> LightDrawn<'s> {
+    /// With the numbers [p₀, p₁, u_light, _]; None where the scene has no
+    /// light to choose.
+    #[inline(always)]
+    fn new(scene: &'s Scene, [p0, p1, u_light, _]: [f32; 4]) -> Option<LightDrawn<'s>> {
+        let (i, pmf) = scene.lights.choose(u_light)?;
+        let light = scene.lights.get(i);
+        let point = match light {
+            Light::Area(area) => Some(area.sample_point((p0, p1))),
+            _ => None,
+        };
+        Some(LightDrawn {
+            light,
+            pmf,
+            u: (p0, p1),
+            point,
+        })
     }
 }
 

@@ -127,7 +127,7 @@ impl AreaLight {
 
     /// A uniformly distributed point on the triangle.
     #[inline]
-    fn sample_point(&self, u: (f32, f32)) -> LightPoint {
+    pub fn sample_point(&self, u: (f32, f32)) -> LightPoint {
         let tri = &self.tri;
         let su = u.0.sqrt();
         let b = [1.0 - su, u.1 * su];
@@ -165,7 +165,19 @@ impl AreaLight {
         wl: &SampledWavelengths,
         sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
     ) -> Option<LightLiSample> {
-        let lp = self.sample_point(u);
+        self.li_from(self.sample_point(u), p_ref, wl, sample)
+    }
+
+    /// `sample_li_by` from `lp`, the point [`AreaLight::sample_point`] drew
+    /// (which a caller may draw early: it needs only its numbers).
+    #[inline]
+    pub fn li_from(
+        &self,
+        lp: LightPoint,
+        p_ref: Vec3,
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> Option<LightLiSample> {
         let to_light = lp.p - p_ref;
         let dist2 = to_light.length_squared();
         if dist2 == 0.0 {
