@@ -459,14 +459,17 @@ pub fn russian_roulette(
 ) -> bool {
     let max_beta = beta.max_element();
     let rr_beta = max_beta * eta_scale * ROULETTE_SURVIVAL;
-    if depth >= rr_depth && rr_beta < 1.0 {
-        let q = (1.0 - rr_beta).max(0.0);
-        if u < q {
-            return false;
-        }
-        *beta /= 1.0 - q;
-    }
-    max_beta > 0.0
+    // Without branches: whether a path survives is a coin toss that a
+    // branch would mispredict half the time, throwing away the work of the
+    // packet core's next lane. Where roulette does not play, q is 0 and
+    // the division by 1 − q leaves β as it is, bit for bit.
+    let q = if depth >= rr_depth {
+        (1.0 - rr_beta).max(0.0)
+    } else {
+        0.0
+    };
+    *beta /= 1.0 - q;
+    (u >= q) & (max_beta > 0.0)
 }
 
 /// Veach's power heuristic (β = 2) for two strategies with one sample each.
