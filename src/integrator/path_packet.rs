@@ -40,7 +40,7 @@ use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::memo::SpectrumMemo;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
-use surface::{Diffuse, Drawn, General, Surface};
+use surface::{Diffuse, General, Surface};
 
 impl PathTracer {
     /// Whether this tracer's renders of `scene` advance their samples as
@@ -245,9 +245,10 @@ impl Lane {
                 // The light sample's and the bounce's numbers, and what they
                 // decide alone, first: they overlap with the surface's work.
                 let light = LightDrawn::new(scene, self.sampler.next_4d());
-                let drawn = Diffuse::draw(self.sampler.next_4d());
+                let u_bounce = self.sampler.next_4d();
+                let drawn = Diffuse::draw(u_bounce);
                 let surface = Diffuse::at(reflectance, hit, wo, &self.wl, &mut self.spectra);
-                self.bounce(tracer, hit, &surface, (light, drawn))
+                self.bounce(tracer, hit, &surface, (light, drawn, u_bounce[3]))
             }
             material => {
                 let bsdf = bsdf_at(scene, hit, wo, &mut self.wl, SampledSpectrum::ONE);
@@ -261,28 +262,30 @@ impl Lane {
                     self.spectra.forget();
                 }
                 let light = LightDrawn::new(scene, self.sampler.next_4d());
-                let drawn = General::draw(self.sampler.next_4d());
-                self.bounce(tracer, hit, &General { bsdf, wo }, (light, drawn))
+                let u_bounce = self.sampler.next_4d();
+                let drawn = General::draw(u_bounce);
+                let surface = General { bsdf, wo };
+                self.bounce(tracer, hit, &surface, (light, drawn, u_bounce[3]))
             }
         }
     }
 
     /// From `hit`, whose BSDF is `surface`: the light sample from `light`,
-    /// the bounce from `drawn` and Russian roulette; whether the path goes
-    /// on. The light sample's numbers are drawn whatever happens, as the
-    /// one-path walk draws them, so later bounces use the same ones. The
-    /// caller draws both, and takes the steps that need only the numbers
-    /// (the light and its point, the bounce's local direction), before it
-    /// makes the surface: that work then overlaps with the surface's and
-    /// the light sample's instead of waiting behind their branches and
-    /// divisions (Cornell Box CPU −4%).
+    /// the bounce from `drawn` and Russian roulette with `u_rr`; whether
+    /// the path goes on. The light sample's numbers are drawn whatever
+    /// happens, as the one-path walk draws them, so later bounces use the
+    /// same ones. The caller draws both, and takes the steps that need only
+    /// the numbers (the light and its point, the bounce's local direction),
+    /// before it makes the surface: that work then overlaps with the
+    /// surface's and the light sample's instead of waiting behind their
+    /// branches and divisions (Cornell Box CPU −4%).
     #[inline(always)]
     fn bounce<S: Surface>(
         &mut self,
         tracer: &PathTracer,
         hit: &SurfaceHit,
         surface: &S,
-        (light, drawn): (Option<LightDrawn>, S::Drawn),
+        (light, drawn, u_rr): (Option<LightDrawn>, S::Drawn, f32),
     ) -> bool {
         if tracer.strategy != Strategy::Bsdf && !surface.is_specular() {
             self.sample_light(tracer, hit, surface, light);
@@ -293,13 +296,7 @@ impl Lane {
         self.beta *= weight;
         (self.specular, self.prev_pdf) = (specular, pdf);
         self.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, wi), wi);
-        russian_roulette(
-            &mut self.beta,
-            1.0,
-            self.depth,
-            tracer.rr_depth,
-            drawn.roulette(),
-        )
+        russian_roulette(&mut self.beta, 1.0, self.depth, tracer.rr_depth, u_rr)
     }
 
     /// Adds the emission of light `i` at `hit`, which the path's ray found,

@@ -25,44 +25,17 @@ pub(super) trait Surface {
     /// f·|cos θ| towards `wi` and the density of sampling `wi`.
     fn eval(&self, wi: Vec3) -> (SampledSpectrum, f32);
 
-    /// What a bounce starts from, given its numbers `u` (u₀, u₁ for the
-    /// direction, u₂ for the lobe, u₃ for Russian roulette).
-    type Drawn: Drawn;
+    /// What a bounce starts from: the steps it takes with its numbers
+    /// alone.
+    type Drawn: Copy;
 
-    /// The steps of a bounce that need only its numbers.
+    /// Those steps, with the numbers `u` (u₀, u₁ for the direction, u₂ for
+    /// the lobe).
     fn draw(u: [f32; 4]) -> Self::Drawn;
 
     /// A direction drawn from `drawn`: the direction, f·|cos θ|/pdf, the
     /// density and whether a Dirac lobe drew it; None where the path ends.
     fn sample(&self, drawn: Self::Drawn) -> Option<(Vec3, SampledSpectrum, f32, bool)>;
-}
-
-/// A bounce's numbers as [`Surface::draw`] leaves them.
-pub(super) trait Drawn: Copy {
-    /// The number Russian roulette takes (u₃).
-    fn roulette(&self) -> f32;
-}
-
-impl Drawn for [f32; 4] {
-    #[inline(always)]
-    fn roulette(&self) -> f32 {
-        self[3]
-    }
-}
-
-/// A diffuse bounce's cosine-weighted direction in the local frame (before
-/// it is turned to `wo`'s side), and the roulette's number.
-#[derive(Clone, Copy)]
-pub(super) struct CosineDrawn {
-    local: Vec3,
-    u_rr: f32,
-}
-
-impl Drawn for CosineDrawn {
-    #[inline(always)]
-    fn roulette(&self) -> f32 {
-        self.u_rr
-    }
 }
 
 /// A metal, glTF's metallic-roughness or a fluorescent surface, by the
@@ -164,21 +137,19 @@ impl Surface for Diffuse {
         (self.f * cos, cos * FRAC_1_PI)
     }
 
-    type Drawn = CosineDrawn;
+    /// The cosine-weighted direction in the local frame, before it is
+    /// turned to `wo`'s side.
+    type Drawn = Vec3;
 
     #[inline(always)]
-    fn draw([u0, u1, _, u_rr]: [f32; 4]) -> CosineDrawn {
-        CosineDrawn {
-            local: cosine_hemisphere((u0, u1)),
-            u_rr,
-        }
+    fn draw([u0, u1, _, _]: [f32; 4]) -> Vec3 {
+        cosine_hemisphere((u0, u1))
     }
 
     /// The cosine-weighted direction turned to `wo`'s side; None where it
     /// is not a reflection on `wo`'s side.
     #[inline(always)]
-    fn sample(&self, drawn: CosineDrawn) -> Option<(Vec3, SampledSpectrum, f32, bool)> {
-        let mut wi_local = drawn.local;
+    fn sample(&self, mut wi_local: Vec3) -> Option<(Vec3, SampledSpectrum, f32, bool)> {
         if self.wo_local.z < 0.0 {
             wi_local.z = -wi_local.z;
         }
