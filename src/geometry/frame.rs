@@ -13,6 +13,7 @@ pub struct Frame {
 impl Frame {
     /// Builds a frame around a unit normal without branches on its direction
     /// (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+    #[inline(always)]
     pub fn from_normal(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
@@ -24,10 +25,12 @@ impl Frame {
         }
     }
 
+    #[inline(always)]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 
+    #[inline(always)]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.s * v.x + self.t * v.y + self.n * v.z
     }

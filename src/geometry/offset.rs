@@ -20,6 +20,22 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     step_each_towards(po, offset)
 }
 
+/// `offset_ray_origin` a component at a time, for loops that the compiler
+/// vectorises across rays, a ray to a lane (the SSE2 steps of one ray's
+/// three components would stop it): the same bits.
+#[inline(always)]
+pub fn offset_ray_origin_by_components(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    let d = n.abs().dot(p_err);
+    let offset = d * n;
+    let offset = if w.dot(n) < 0.0 { -offset } else { offset };
+    let po = p + offset;
+    Vec3::new(
+        step_towards(po.x, offset.x),
+        step_towards(po.y, offset.y),
+        step_towards(po.z, offset.z),
+    )
+}
+
 /// `step_towards` for each component, the three at once in SSE2 (one
 /// call of the scalar version each was 3% of a diffuse scene's
 /// instructions: three origins a bounce).
@@ -67,8 +83,7 @@ fn step_each_towards(x: Vec3, dir: Vec3) -> Vec3 {
 /// offsets vary from ray to ray, and branching on them mispredicted often
 /// enough to make this function 5% of a profile. Finite `x` only (a hit
 /// point is finite).
-#[cfg(any(test, not(target_arch = "x86_64")))]
-#[inline]
+#[inline(always)]
 fn step_towards(x: f32, dir: f32) -> f32 {
     let bits = x.to_bits();
     // Away from zero (the signs agree) the magnitude, and so the bits, grow.

@@ -458,21 +458,29 @@ pub fn russian_roulette(
     u: f32,
 ) -> bool {
     let max_beta = beta.max_element();
-    let rr_beta = max_beta * eta_scale * ROULETTE_SURVIVAL;
     // Without branches: whether a path survives is a coin toss that a
     // branch would mispredict half the time, throwing away the work of the
     // packet core's next lane. Where roulette does not play, q is 0 and
     // the division by 1 − q leaves β as it is, bit for bit.
-    let q = if depth >= rr_depth {
-        (1.0 - rr_beta).max(0.0)
-    } else {
-        0.0
-    };
+    let q = roulette_q(max_beta, eta_scale, depth >= rr_depth);
     *beta /= 1.0 - q;
     (u >= q) & (max_beta > 0.0)
 }
 
+/// The probability that `russian_roulette` ends a path whose throughput's
+/// largest value is `max_beta`: 0 where roulette does not `play`.
+#[inline(always)]
+pub fn roulette_q(max_beta: f32, eta_scale: f32, plays: bool) -> f32 {
+    let rr_beta = max_beta * eta_scale * ROULETTE_SURVIVAL;
+    if plays {
+        (1.0 - rr_beta).max(0.0)
+    } else {
+        0.0
+    }
+}
+
 /// Veach's power heuristic (β = 2) for two strategies with one sample each.
+#[inline(always)]
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
     if a.is_infinite() {

@@ -19,6 +19,7 @@
 //! last bits. Samples are added in the tile's order (`InOrder`), so the
 //! image is the same for any thread count.
 
+mod diffuse_lanes;
 mod surface;
 
 use std::ops::Range;
@@ -40,6 +41,7 @@ use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::memo::SpectrumMemo;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use diffuse_lanes::{Bounced, DiffuseBounce, DiffuseBounces};
 use surface::{Diffuse, General, Surface};
 
 impl PathTracer {
@@ -127,6 +129,7 @@ pub fn render_tile(
     let mut triangles = [None; MAX_PACKET_WIDTH];
     let mut hits: [Option<SurfaceHit>; MAX_PACKET_WIDTH] = [None; MAX_PACKET_WIDTH];
     let mut blocked = [false; MAX_PACKET_WIDTH];
+    let mut diffuse = DiffuseBounces::default();
     loop {
         while lanes.len() < width {
             let Some(sample) = samples.next() else {
@@ -147,7 +150,7 @@ pub fn render_tile(
         } else {
             scene.intersect_packet(&rays[..n], &mut hits[..n]);
         }
-        for (lane, hit) in lanes.iter_mut().zip(&hits) {
+        for (k, (lane, hit)) in lanes.iter_mut().zip(&hits).enumerate() {
             lane.goes_on = match hit {
                 Some(hit)
                     if lane.depth == 0
@@ -155,10 +158,11 @@ pub fn render_tile(
                 {
                     lane.pass(hit)
                 }
-                Some(hit) => lane.scatter(tracer, scene, hit),
+                Some(hit) => lane.scatter(tracer, scene, hit, (&mut diffuse, k)),
                 None => lane.escape(tracer, scene),
             };
         }
+        diffuse.finish(|k, bounced| lanes[k].bounced(bounced));
         // The light samples' shadow rays, traced together.
         let mut m = 0;
         for lane in &lanes {
@@ -230,8 +234,16 @@ impl Lane {
     }
 
     /// The path reached `hit`: the emission found there, the light sample,
-    /// the bounce and Russian roulette; whether the path goes on.
-    fn scatter(&mut self, tracer: &PathTracer, scene: &Scene, hit: &SurfaceHit) -> bool {
+    /// the bounce and Russian roulette; whether the path goes on. A diffuse
+    /// bounce that samples an area light is left to the packet's `diffuse`
+    /// slots (as lane `k`), which answer after every lane has scattered.
+    fn scatter(
+        &mut self,
+        tracer: &PathTracer,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        (diffuse, k): (&mut DiffuseBounces, usize),
+    ) -> bool {
         if let Some(i) = hit.light {
             self.add_emission(tracer, scene, hit, i);
         }
@@ -246,6 +258,14 @@ impl Lane {
                 // decide alone, first: they overlap with the surface's work.
                 let light = LightDrawn::new(scene, self.sampler.next_4d());
                 let u_bounce = self.sampler.next_4d();
+                if let (Strategy::Mis, Some(area_light)) = (tracer.strategy, light) {
+                    if let Some(bounce) =
+                        self.diffuse_bounce(tracer, hit, reflectance, area_light, u_bounce)
+                    {
+                        diffuse.push(k, bounce);
+                        return true;
+                    }
+                }
                 let drawn = Diffuse::draw(u_bounce);
                 let surface = Diffuse::at(reflectance, hit, wo, &self.wl, &mut self.spectra);
                 self.bounce(tracer, hit, &surface, (light, drawn, u_bounce[3]))
@@ -297,6 +317,55 @@ impl Lane {
         (self.specular, self.prev_pdf) = (specular, pdf);
         self.ray = Ray::new(offset_ray_origin(hit.p, hit.p_err, hit.ng, wi), wi);
         russian_roulette(&mut self.beta, 1.0, self.depth, tracer.rr_depth, u_rr)
+    }
+
+    /// What the packet's diffuse slots need for this lane's bounce at
+    /// `hit`, where `light` is an area light's point (None elsewhere).
+    #[inline(always)]
+    fn diffuse_bounce<'h>(
+        &mut self,
+        tracer: &PathTracer,
+        hit: &'h SurfaceHit,
+        reflectance: &crate::material::Reflectance,
+        light: LightDrawn,
+        u: [f32; 4],
+    ) -> Option<DiffuseBounce<'h>> {
+        let (Light::Area(area), Some(point)) = (light.light, light.point) else {
+            return None;
+        };
+        let (spectra, wl) = (&mut self.spectra, &self.wl);
+        let r = reflectance.sample_by(hit.uv, wl, |s| spectra.sample(s, wl));
+        let emission = area.front_emission_by(point.uv, wl, |s| spectra.sample(s, wl));
+        Some(DiffuseBounce {
+            hit,
+            wo: -self.ray.dir,
+            f: r.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE) * std::f32::consts::FRAC_1_PI,
+            beta: self.beta,
+            point,
+            emission,
+            two_sided: area.two_sided(),
+            area: area.area(),
+            pmf: light.pmf,
+            u: (u[0], u[1]),
+            u_rr: u[3],
+            roulette: self.depth >= tracer.rr_depth,
+        })
+    }
+
+    /// What the packet's diffuse slots left this lane.
+    fn bounced(&mut self, Bounced { shadow, next }: Bounced) {
+        if let Some((ray, unblocked)) = shadow {
+            self.counters.rays += 1;
+            self.shadow = Some(ray);
+            self.unblocked = unblocked;
+        }
+        self.goes_on = match next {
+            Some((ray, beta, pdf)) => {
+                (self.ray, self.beta, self.specular, self.prev_pdf) = (ray, beta, false, pdf);
+                true
+            }
+            None => false,
+        };
     }
 
     /// Adds the emission of light `i` at `hit`, which the path's ray found,

@@ -83,6 +83,28 @@ impl AreaLight {
         self.l_by(uv, w, wl, sample) * share
     }
 
+    /// `sampled_l` on the emitting side (seen from the side it emits to, or
+    /// from either where the light is two-sided), which the packet core
+    /// looks up before it knows the side: the same bits.
+    #[inline]
+    pub fn front_emission_by(
+        &self,
+        uv: Vec2,
+        wl: &SampledWavelengths,
+        sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
+    ) -> SampledSpectrum {
+        let share = self.cutout.as_ref().map_or(1.0, |c| c.coverage(uv));
+        if share == 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        self.emitter.radiance_by(uv, wl, sample) * share
+    }
+
+    /// Whether both faces emit.
+    pub fn two_sided(&self) -> bool {
+        self.two_sided
+    }
+
     pub fn emitter(&self) -> &Emitter {
         &self.emitter
     }
