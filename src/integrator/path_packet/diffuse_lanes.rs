@@ -11,7 +11,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::{Vec3, Vec4};
 
-use crate::geometry::bvh::{packet_width, MAX_PACKET_WIDTH};
+use crate::geometry::bvh::MAX_PACKET_WIDTH;
 use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin_by_components;
 use crate::geometry::Ray;
@@ -213,7 +213,7 @@ impl DiffuseBounces {
     /// are sixteen paths (the CPU has it), else eight.
     fn run(&mut self) {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if packet_width() == 16 {
+        if crate::geometry::bvh::packet_width() == 16 {
             // SAFETY: packets are sixteen wide only where the CPU has
             // AVX-512F.
             unsafe { self.run_sixteen() };
