@@ -36,7 +36,7 @@ use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::Ray;
 use crate::integrator::interface::{bsdf_at, MAX_FALSE_INTERSECTIONS};
 use crate::light::{Light, LightPoint, LightSource};
-use crate::material::Material;
+use crate::material::{Material, Reflectance};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::memo::SpectrumMemo;
@@ -262,6 +262,7 @@ impl Lane {
                     if let Some(bounce) =
                         self.diffuse_bounce(tracer, hit, reflectance, area_light, u_bounce)
                     {
+                        // The slots answer whether it goes on (`finish`).
                         diffuse.push(k, bounce);
                         return true;
                     }
@@ -326,20 +327,20 @@ impl Lane {
         &mut self,
         tracer: &PathTracer,
         hit: &'h SurfaceHit,
-        reflectance: &crate::material::Reflectance,
+        reflectance: &Reflectance,
         light: LightDrawn,
         u: [f32; 4],
     ) -> Option<DiffuseBounce<'h>> {
         let (Light::Area(area), Some(point)) = (light.light, light.point) else {
             return None;
         };
+        let f = Diffuse::f(reflectance, hit, &self.wl, &mut self.spectra);
         let (spectra, wl) = (&mut self.spectra, &self.wl);
-        let r = reflectance.sample_by(hit.uv, wl, |s| spectra.sample(s, wl));
         let emission = area.front_emission_by(point.uv, wl, |s| spectra.sample(s, wl));
         Some(DiffuseBounce {
             hit,
             wo: -self.ray.dir,
-            f: r.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE) * std::f32::consts::FRAC_1_PI,
+            f,
             beta: self.beta,
             point,
             emission,

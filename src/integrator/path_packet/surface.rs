@@ -102,14 +102,26 @@ impl Diffuse {
             wo,
         };
         let (frame, ng) = facing_frame(&geometry);
-        let r = reflectance.sample_by(hit.uv, wl, |s| spectra.sample(s, wl));
         Diffuse {
             frame,
             ng,
             wo,
             wo_local: frame.to_local(wo),
-            f: r.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE) * FRAC_1_PI,
+            f: Diffuse::f(reflectance, hit, wl, spectra),
         }
+    }
+
+    /// f = R/π at `hit`, R looked up through the path's memo (as
+    /// `Material::bsdf` clamps it, to [0, 1]).
+    #[inline(always)]
+    pub(super) fn f(
+        reflectance: &Reflectance,
+        hit: &SurfaceHit,
+        wl: &SampledWavelengths,
+        spectra: &mut SpectrumMemo,
+    ) -> SampledSpectrum {
+        let r = reflectance.sample_by(hit.uv, wl, |s| spectra.sample(s, wl));
+        r.clamp(SampledSpectrum::ZERO, SampledSpectrum::ONE) * FRAC_1_PI
     }
 
     /// `wi` leaves on `wo`'s side of the shading and the geometric normal.
