@@ -9,15 +9,20 @@ use glam::Vec3;
 /// Moves `p` (with absolute error bound `p_err`) off the surface with normal
 /// `n`, to the side that direction `w` points into.
 pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
-    let d = n.abs().dot(p_err);
-    let mut offset = d * n;
-    if w.dot(n) < 0.0 {
-        offset = -offset;
-    }
-    let po = p + offset;
+    let (po, offset) = pushed_off(p, p_err, n, w);
     // One float further in each direction the offset moves: rounding in
     // `p + offset` may have lost part of it.
     step_each_towards(po, offset)
+}
+
+/// `p` moved along ±`n` by its error bound's extent there, to `w`'s side,
+/// and the offset that moved it.
+#[inline(always)]
+fn pushed_off(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> (Vec3, Vec3) {
+    let d = n.abs().dot(p_err);
+    let offset = d * n;
+    let offset = if w.dot(n) < 0.0 { -offset } else { offset };
+    (p + offset, offset)
 }
 
 /// `offset_ray_origin` a component at a time, for loops that the compiler
@@ -25,10 +30,7 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// three components would stop it): the same bits.
 #[inline(always)]
 pub fn offset_ray_origin_by_components(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
-    let d = n.abs().dot(p_err);
-    let offset = d * n;
-    let offset = if w.dot(n) < 0.0 { -offset } else { offset };
-    let po = p + offset;
+    let (po, offset) = pushed_off(p, p_err, n, w);
     Vec3::new(
         step_towards(po.x, offset.x),
         step_towards(po.y, offset.y),

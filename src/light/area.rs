@@ -76,11 +76,10 @@ impl AreaLight {
         wl: &SampledWavelengths,
         sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
     ) -> SampledSpectrum {
-        let share = self.cutout.as_ref().map_or(1.0, |c| c.coverage(uv));
-        if share == 0.0 {
+        if !self.emits_towards(w) {
             return SampledSpectrum::ZERO;
         }
-        self.l_by(uv, w, wl, sample) * share
+        self.front_emission_by(uv, wl, sample)
     }
 
     /// `sampled_l` on the emitting side (seen from the side it emits to, or
@@ -103,6 +102,13 @@ impl AreaLight {
     /// Whether both faces emit.
     pub fn two_sided(&self) -> bool {
         self.two_sided
+    }
+
+    /// Whether light leaves towards `w`: the front face's side, or either
+    /// where the light is two-sided.
+    #[inline]
+    fn emits_towards(&self, w: Vec3) -> bool {
+        self.two_sided || !(self.n.dot(w) <= 0.0)
     }
 
     pub fn emitter(&self) -> &Emitter {
@@ -141,7 +147,7 @@ impl AreaLight {
         wl: &SampledWavelengths,
         sample: impl FnOnce(&Spectrum) -> SampledSpectrum,
     ) -> SampledSpectrum {
-        if !self.two_sided && self.n.dot(w) <= 0.0 {
+        if !self.emits_towards(w) {
             return SampledSpectrum::ZERO;
         }
         self.emitter.radiance_by(uv, wl, sample)
