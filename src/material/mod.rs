@@ -544,6 +544,7 @@ impl Material {
 /// surface that `wo` is on, plus the geometric normal turned the same way.
 /// The reflection lobes are symmetric (both faces reflect alike), so the
 /// orientation only fixes which way the frame's axes point.
+#[inline(always)]
 pub fn facing_frame(geom: &ShadingGeometry) -> (Frame, Vec3) {
     let ng = if geom.ng.dot(geom.wo) < 0.0 {
         -geom.ng

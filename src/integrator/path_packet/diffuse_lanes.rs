@@ -12,12 +12,11 @@ use std::f32::consts::FRAC_1_PI;
 use glam::{Vec3, Vec4};
 
 use crate::geometry::bvh::MAX_PACKET_WIDTH;
-use crate::geometry::frame::Frame;
 use crate::geometry::offset::offset_ray_origin_by_components;
 use crate::geometry::Ray;
 use crate::integrator::{power_heuristic, roulette_q};
 use crate::light::LightPoint;
-use crate::material::cosine_hemisphere;
+use crate::material::{cosine_hemisphere, facing_frame, ShadingGeometry};
 use crate::scene::SurfaceHit;
 use crate::spectrum::SampledSpectrum;
 
@@ -26,7 +25,7 @@ const SLOTS: usize = MAX_PACKET_WIDTH;
 type Lanes = [f32; SLOTS];
 
 /// A vector's components, a lane each.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct Vectors([Lanes; 3]);
 
 impl Vectors {
@@ -42,7 +41,7 @@ impl Vectors {
 }
 
 /// A spectrum's four values, a lane each.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct Spectra([Lanes; 4]);
 
 impl Spectra {
@@ -89,6 +88,7 @@ pub(super) struct Bounced {
 }
 
 /// The slots of a packet's diffuse bounces, inputs and answers.
+#[derive(Default)]
 pub(super) struct DiffuseBounces {
     /// The lane of each slot in use.
     lanes: [usize; SLOTS],
@@ -121,45 +121,6 @@ pub(super) struct DiffuseBounces {
     wi: Vectors,
     next_beta: Spectra,
     pdf: Lanes,
-}
-
-impl Default for DiffuseBounces {
-    fn default() -> Self {
-        let v = Vectors([[0.0; SLOTS]; 3]);
-        let s = Spectra([[0.0; SLOTS]; 4]);
-        let l = [0.0; SLOTS];
-        DiffuseBounces {
-            lanes: [0; SLOTS],
-            used: 0,
-            p: v,
-            p_err: v,
-            ng: v,
-            ns: v,
-            wo: v,
-            f: s,
-            beta: s,
-            light_p: v,
-            light_p_err: v,
-            light_n: v,
-            emission: s,
-            two_sided: [false; SLOTS],
-            area: l,
-            pmf: l,
-            u0: l,
-            u1: l,
-            u_rr: l,
-            roulette: [false; SLOTS],
-            shadow_found: [false; SLOTS],
-            shadow_origin: v,
-            shadow_target: v,
-            unblocked: s,
-            goes_on: [false; SLOTS],
-            origin: v,
-            wi: v,
-            next_beta: s,
-            pdf: l,
-        }
-    }
 }
 
 impl DiffuseBounces {
@@ -247,14 +208,12 @@ impl DiffuseBounces {
                 self.wo.get(i),
             );
             // `Diffuse::at`: the frame of the shading normal on wo's side.
-            let ng = if ng_hit.dot(wo) < 0.0 {
-                -ng_hit
-            } else {
-                ng_hit
+            let geometry = ShadingGeometry {
+                ng: ng_hit,
+                ns: self.ns.get(i),
+                wo,
             };
-            let ns = self.ns.get(i);
-            let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-            let frame = Frame::from_normal(ns);
+            let (frame, ng) = facing_frame(&geometry);
             let wo_local = frame.to_local(wo);
             let wo_ng = wo.dot(ng);
             let (f, beta) = (self.f.get(i), self.beta.get(i));
