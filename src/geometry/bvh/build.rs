@@ -4,6 +4,7 @@
 
 use glam::{Vec3, Vec4};
 
+use super::leaf_cost::LeafCost;
 use super::{WideNode, WIDTH};
 use crate::geometry::huge_pages::HugeArray;
 use crate::geometry::triangle4::Triangle4;
@@ -142,6 +143,7 @@ impl BuildPrim {
 pub(super) fn build_boxes(
     count: usize,
     bounds: impl Fn(usize) -> Aabb + Sync,
+    leaf_cost: LeafCost,
 ) -> (Vec<WideNode>, Aabb, Vec<u32>) {
     use rayon::prelude::*;
     // In parallel: on big meshes the first touch of these pages (the
@@ -158,7 +160,7 @@ pub(super) fn build_boxes(
     // counts against `ulimit -v` though it is never touched.
     let mut binary = Vec::new();
     let boxes = bounds_of(&prims);
-    build_range(&mut prims, boxes, 0, 0, &mut binary);
+    build_range(&mut prims, boxes, 0, 0, leaf_cost, &mut binary);
     let order = prims.par_iter().map(BuildPrim::index).collect();
     let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
     collapse(&binary, 0, &mut nodes);
@@ -265,6 +267,7 @@ fn build_range(
     boxes: (Box4, Box4),
     first: usize,
     depth: usize,
+    leaf_cost: LeafCost,
     nodes: &mut Vec<Node>,
 ) -> usize {
     let (bounds, centroids) = boxes;
@@ -273,14 +276,14 @@ fn build_range(
     let n = prims.len();
     let extent = centroids.diagonal();
     let axis = largest_axis(extent);
-    if (n <= 4 || extent[axis] <= 0.0) && n <= u16::MAX as usize {
-        // Leaf: one packet (which the SAH never splits) or nothing to split
+    if (n <= leaf_cost.never_split() || extent[axis] <= 0.0) && n <= u16::MAX as usize {
+        // Leaf: one that the SAH would never split, or nothing to split
         // (identical centroids).
         return index;
     }
 
     let split = if depth < SAH_MAX_DEPTH && extent[axis] > 0.0 {
-        match sah_split(prims, &bounds, &centroids) {
+        match sah_split(prims, &bounds, &centroids, leaf_cost) {
             Some(split) => split,
             None if n <= MAX_LEAF => return index,
             None => median_split(prims, axis),
@@ -301,18 +304,25 @@ fn build_range(
     // stop a few levels below one per thread: each one copies its right
     // subtree's nodes once more, into pages touched for the first time.
     if n < PARALLEL_MIN || depth >= rayon::current_num_threads().ilog2() as usize + 3 {
-        build_range(left, left_boxes, first, depth + 1, nodes);
-        let second = build_range(right, right_boxes, first + mid, depth + 1, nodes);
+        build_range(left, left_boxes, first, depth + 1, leaf_cost, nodes);
+        let second = build_range(right, right_boxes, first + mid, depth + 1, leaf_cost, nodes);
         nodes[index].set_interior(second as u32);
         return index;
     }
     let right_subtree = || {
         let mut own = Vec::new();
-        build_range(right, right_boxes, first + mid, depth + 1, &mut own);
+        build_range(
+            right,
+            right_boxes,
+            first + mid,
+            depth + 1,
+            leaf_cost,
+            &mut own,
+        );
         own
     };
     let (_, r) = rayon::join(
-        || build_range(left, left_boxes, first, depth + 1, nodes),
+        || build_range(left, left_boxes, first, depth + 1, leaf_cost, nodes),
         right_subtree,
     );
     let second = nodes.len();
@@ -465,7 +475,12 @@ impl Binner {
 
 /// Binned SAH over all three axes. Partitions `prims` and returns the split
 /// point, or None when keeping a leaf is cheaper (or nothing separates).
-fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option<Split> {
+fn sah_split(
+    prims: &mut [BuildPrim],
+    bounds: &Box4,
+    centroids: &Box4,
+    leaf_cost: LeafCost,
+) -> Option<Split> {
     use rayon::prelude::*;
     let n = prims.len();
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bins on the left)
@@ -506,8 +521,8 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option
             if cnt == 0 || right_count[i + 1] == 0 {
                 continue;
             }
-            let cost =
-                packets(cnt) * acc.surface_area() + packets(right_count[i + 1]) * right_area[i + 1];
+            let cost = leaf_cost.of(cnt) * acc.surface_area()
+                + leaf_cost.of(right_count[i + 1]) * right_area[i + 1];
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, i + 1));
             }
@@ -515,8 +530,13 @@ fn sah_split(prims: &mut [BuildPrim], bounds: &Box4, centroids: &Box4) -> Option
     }
     let (cost, axis, left_bins) = best?;
     let area = bounds.surface_area();
-    let split_cost = TRAVERSAL_COST + if area > 0.0 { cost / area } else { packets(n) };
-    if n <= MAX_LEAF && split_cost >= packets(n) {
+    let split_cost = TRAVERSAL_COST
+        + if area > 0.0 {
+            cost / area
+        } else {
+            leaf_cost.of(n)
+        };
+    if n <= MAX_LEAF && split_cost >= leaf_cost.of(n) {
         return None;
     }
     let split = partition(prims, |p| binner.bin(p, axis) < left_bins);
@@ -553,9 +573,4 @@ fn partition(prims: &mut [BuildPrim], on_left: impl Fn(&BuildPrim) -> bool) -> S
         left,
         right,
     }
-}
-
-/// The packets of four that `n` triangles fill: what testing a leaf costs.
-fn packets(n: usize) -> f32 {
-    n.div_ceil(4) as f32
 }

@@ -59,7 +59,18 @@ impl Bvh {
         count: usize,
         triangle: impl Fn(usize) -> [Vec3; 3] + Sync,
     ) -> (Bvh, Vec<u32>) {
-        let (mut nodes, bounds, order) = build_boxes(count, |i| Aabb::of_points(&triangle(i)));
+        let bounds_of = |i| Aabb::of_points(&triangle(i));
+        let (mut nodes, mut bounds, mut order) = build_boxes(count, bounds_of, LeafCost::Packets);
+        if packet::walks_packets(nodes.len()) {
+            // Packets of rays will walk a tree this small, and they test a
+            // leaf's triangles one by one, not four at a time: built again
+            // for that, with smaller leaves (the Cornell Box's walls one to a
+            // leaf, not two), while it stays small enough.
+            let small = build_boxes(count, bounds_of, LeafCost::Triangles);
+            if packet::walks_packets(small.0.len()) {
+                (nodes, bounds, order) = small;
+            }
+        }
         let packets = pack_leaves(&mut nodes, |prim| triangle(order[prim] as usize));
         let mut bvh = Bvh {
             nodes: HugeArray::filled_in_parallel(nodes.len(), |i| nodes[i]),
@@ -113,11 +124,13 @@ impl Bvh {
 }
 
 mod build;
+mod leaf_cost;
 mod packet;
 pub use packet::{keep_packets_to_avx2, packet_width, MAX_PACKET_WIDTH};
 mod traverse;
 
 use build::{build_boxes, pack_leaves};
+use leaf_cost::LeafCost;
 
 #[cfg(test)]
 mod tests {
@@ -153,7 +166,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| build_boxes(bounds.len(), |i| bounds[i]))
+                .install(|| build_boxes(bounds.len(), |i| bounds[i], LeafCost::Packets))
         };
         let (a, _, order_a) = build(1);
         let (b, _, order_b) = build(4);

@@ -51,6 +51,12 @@ pub fn keep_packets_to_avx2() {
     let _ = PACKET_WIDTH.set(8);
 }
 
+/// Whether packets of rays walk a tree of `nodes` nodes
+/// (`Bvh::prefers_packets`).
+pub(super) fn walks_packets(nodes: usize) -> bool {
+    cfg!(all(target_arch = "x86_64", target_feature = "avx2")) && nodes <= MAX_PACKET_NODES
+}
+
 impl Bvh {
     /// Whether a packet's rays are better walked together
     /// (`intersect_packet`) than one at a time: in trees of at most eight
@@ -58,8 +64,7 @@ impl Bvh {
     /// single rays (`tools/gen_cave.py`): the Cornell Box (one node) −11%,
     /// caves of 1, 5 and 8 nodes −8%, −5%, −4%, of 9 nodes −1% and +1%.
     pub fn prefers_packets(&self) -> bool {
-        cfg!(all(target_arch = "x86_64", target_feature = "avx2"))
-            && self.nodes.len() <= MAX_PACKET_NODES
+        walks_packets(self.nodes.len())
     }
 
     /// `intersect` for up to `packet_width()` rays (`hits[i]` answers
@@ -204,10 +209,20 @@ mod walk {
         made: u32,
     }
 
-    /// Leaves met by this many lanes or fewer are tested ray by ray: in
-    /// the Cornell Box 28% of the triangle tests were for one lane and 15%
-    /// for two, each a full eight-lane test.
-    const FEW_LANES: u32 = 3;
+    /// Whether a leaf of `count` triangles that the rays of `lanes` enter
+    /// is cheaper tested ray by ray: a ray alone tests the triangles four
+    /// at a time, but its setup and the single walk's bookkeeping cost
+    /// about three of the packet's tests (one triangle against every
+    /// lane) per four. So one ray alone takes a leaf of four or more, and
+    /// a leaf of one or two triangles is always tested together.
+    #[inline(always)]
+    fn alone_is_cheaper(lanes: u32, count: u32) -> bool {
+        lanes.count_ones() * count.div_ceil(4) * ALONE_COST <= count
+    }
+
+    /// What a ray tested alone costs per four triangles, in the packet's
+    /// triangle tests (`alone_is_cheaper`).
+    const ALONE_COST: u32 = 3;
 
     /// A packet's rays, a lane each: what the slab and triangle tests take.
     pub struct RayPacket<L: Lanes> {
@@ -340,7 +355,7 @@ mod walk {
         ) {
             // Each lane's ray as the single walk takes it, made when a leaf
             // is first met by so few lanes that testing them one by one is
-            // cheaper (`FEW_LANES`); left uninitialised until then (zeroing
+            // cheaper (`alone_is_cheaper`); left uninitialised until then (zeroing
             // 8 of them per walk cost more than the tests saved).
             let mut alone = Alone {
                 rays: [const { MaybeUninit::uninit() }; MAX_PACKET_WIDTH],
@@ -364,7 +379,7 @@ mod walk {
                     if count == 0 {
                         stack[top].write(first);
                         top += 1;
-                    } else if lanes.count_ones() <= FEW_LANES {
+                    } else if alone_is_cheaper(lanes, count) {
                         self.test_leaf_alone::<ANY_HIT, L>(
                             packet,
                             rays,
