@@ -212,6 +212,90 @@ mod tests {
         }
     }
 
+    /// The most triangles a leaf of `bvh` holds.
+    fn largest_leaf(nodes: &[WideNode]) -> u32 {
+        nodes.iter().flat_map(|n| n.count).max().unwrap_or(0)
+    }
+
+    /// A room of six walls and a lamp below its ceiling (14 triangles) is
+    /// small enough for packets of rays, and is built for them: leaves of
+    /// one wall, not two, and hits as brute force finds them, alone and in
+    /// packets. A big mesh keeps the tree built for single rays.
+    #[test]
+    fn a_small_tree_is_built_for_packets() {
+        let quad = |o: Vec3, a: Vec3, b: Vec3| [[o, o + a, o + a + b], [o, o + a + b, o + b]];
+        let (x, y, z) = (Vec3::X * 10.0, Vec3::Y * 10.0, Vec3::Z * 10.0);
+        let tris: Vec<[Vec3; 3]> = [
+            quad(Vec3::ZERO, x, z),
+            quad(y, z, x),
+            quad(Vec3::ZERO, y, x),
+            quad(z, x, y),
+            quad(Vec3::ZERO, z, y),
+            quad(x, y, z),
+            quad(Vec3::new(4.0, 9.9, 4.0), Vec3::Z * 2.0, Vec3::X * 2.0),
+        ]
+        .concat();
+        let (bvh, order) = Bvh::build(&tris);
+        let single_ray_tree =
+            build_boxes(tris.len(), |i| Aabb::of_points(&tris[i]), LeafCost::Packets).0;
+        if packet::walks_packets(single_ray_tree.len()) {
+            assert!(bvh.prefers_packets(), "{} nodes", bvh.node_count());
+            assert!(
+                largest_leaf(&bvh.nodes) <= 2,
+                "a leaf of {}",
+                largest_leaf(&bvh.nodes)
+            );
+            assert!(
+                largest_leaf(&single_ray_tree) > 2,
+                "the rebuild changes nothing here"
+            );
+        }
+        let mut s = 17u64;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let mut hits_found = 0;
+        for _ in 0..200 {
+            let rays: Vec<Ray> = (0..16)
+                .map(|_| {
+                    let o = Vec3::new(next(), next(), next()) * 9.0 + Vec3::splat(0.5);
+                    let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+                    Ray::new(o, d.normalize_or(Vec3::Y))
+                })
+                .collect();
+            let mut packet = vec![None; rays.len()];
+            bvh.intersect_packet(&rays, &mut packet);
+            for (ray, in_packet) in rays.iter().zip(&packet) {
+                let shear = RayShear::new(ray);
+                let brute = tris
+                    .iter()
+                    .filter_map(|t| triangle::intersect(&shear, t, ray.t_max))
+                    .map(|h| h.t)
+                    .min_by(f32::total_cmp);
+                let alone = bvh.intersect(ray);
+                assert_eq!(alone.map(|(_, h)| h.t), brute);
+                assert_eq!(in_packet.map(|(_, h)| h.t), brute);
+                if let Some((p, h)) = alone {
+                    let t =
+                        triangle::intersect(&shear, &tris[order[p as usize] as usize], ray.t_max);
+                    assert_eq!(t.map(|t| t.t), Some(h.t), "the hit names its triangle");
+                    hits_found += 1;
+                }
+            }
+        }
+        // Every ray starts inside the closed room.
+        assert_eq!(hits_found, 200 * 16);
+
+        let big = random_triangles(3000, 7);
+        let (bvh, _) = Bvh::build(&big);
+        let single_ray_tree =
+            build_boxes(big.len(), |i| Aabb::of_points(&big[i]), LeafCost::Packets).0;
+        assert_eq!(bvh.node_count(), single_ray_tree.len());
+    }
+
     #[test]
     fn a_stream_finds_each_rays_hit_bit_for_bit() {
         let tris = random_triangles(20_000, 11);
