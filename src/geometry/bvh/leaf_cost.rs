@@ -20,8 +20,9 @@ impl LeafCost {
         }
     }
 
-    /// Leaves of at most this many primitives are never split: the SAH
-    /// would not split one packet of four for a single ray.
+    /// Leaves of at most this many primitives are never split: for
+    /// single rays one packet of four (which the SAH would never split),
+    /// for packets one triangle.
     pub(super) fn never_split(self) -> usize {
         match self {
             LeafCost::Packets => 4,

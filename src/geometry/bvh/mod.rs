@@ -212,7 +212,7 @@ mod tests {
         }
     }
 
-    /// The most triangles a leaf of `bvh` holds.
+    /// The most triangles one leaf among `nodes` holds.
     fn largest_leaf(nodes: &[WideNode]) -> u32 {
         nodes.iter().flat_map(|n| n.count).max().unwrap_or(0)
     }
