@@ -213,8 +213,9 @@ mod walk {
     /// is cheaper tested ray by ray: a ray alone tests the triangles four
     /// at a time, but its setup and the single walk's bookkeeping cost
     /// about three of the packet's tests (one triangle against every
-    /// lane) per four. So one ray alone takes a leaf of four or more, and
-    /// a leaf of one or two triangles is always tested together.
+    /// lane) per four. So in leaves of up to eight triangles only one ray
+    /// ever goes alone, into a leaf of 3, 4, 6, 7 or 8 (which fill their
+    /// fours well); leaves of one or two are always tested together.
     #[inline(always)]
     fn alone_is_cheaper(lanes: u32, count: u32) -> bool {
         lanes.count_ones() * count.div_ceil(4) * ALONE_COST <= count
