@@ -50,7 +50,8 @@ def lathe(profile, segments=96):
     (vertex, normal) pairs, and normals: each band (one edge of the profile
     revolved) is smooth around the axis, as a turned glass is, and meets
     the next band at a sharp edge, as the profile's corners are; flat
-    facets would show as stripes and split the glints into sparkles."""
+    facets would show as stripes and split the glints into sparkles. A
+    band that meets the axis is a fan of triangles."""
     v, faces, normals = [], [], []
     n = len(profile)
     for s in range(segments):
@@ -72,8 +73,15 @@ def lathe(profile, segments=96):
             j = (i + 1) % n
             a, b, c, d = s * n + i, s * n + j, t * n + j, t * n + i
             ns, nt = i * segments + s, i * segments + t
-            faces.append(((a, ns), (b, ns), (c, nt), (d, nt)))
-    # Points on the axis make degenerate triangles; the renderer drops them.
+            on_axis_i, on_axis_j = profile[i][0] == 0.0, profile[j][0] == 0.0
+            if on_axis_i and on_axis_j:
+                continue  # an edge along the axis sweeps nothing
+            if on_axis_i:  # a and d are one point: a triangle
+                faces.append(((a, ns), (b, ns), (c, nt)))
+            elif on_axis_j:  # b and c are one point
+                faces.append(((a, ns), (c, nt), (d, nt)))
+            else:
+                faces.append(((a, ns), (b, ns), (c, nt), (d, nt)))
     return v, faces, normals
 
 
