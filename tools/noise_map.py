@@ -3,7 +3,7 @@
 
     python3 tools/noise_map.py SCENE --reference REF.exr [--seeds 12]
         [--spp 16] [--resolution WxH] [--integrator K] [--threads 2]
-        [--region NAME:X0,Y0,X1,Y1 ...] [--out DIR]
+        [--region NAME:X0,Y0,X1,Y1 ...] [--compare DIR] [--out DIR]
 
 1. Renders SCENE once per seed (`prism render --seed S`), the same sample
    count each, so that the images are independent estimates.
@@ -16,9 +16,17 @@
    (boxes in pixels, end exclusive); writes DIR/noise.png (the map,
    brighter where noisier, square-root scaled to its 99.5th percentile)
    and DIR/noise.npy (the map).
+4. With --compare DIR (an earlier run's --out, of the same scene and
+   size), also compare.png in this run's --out: the reference's PNG
+   (REF's name with .png, which `prism render` writes beside it), that
+   run's map and this run's, both on that run's scale, each shown twice
+   its size. The figures of docs/integrators.md ("Where the noise left
+   is") are made so: the path tracer's run first, then `path_caustics`'
+   compared to it.
 
-A benchmark helper, not part of the test suite; needs numpy, OpenEXR and
-Pillow (tools/bench-requirements.txt).
+A benchmark helper; its figure is tested (tools/tests/test_noise_map.py),
+the renders are not. Needs numpy, OpenEXR and Pillow
+(tools/bench-requirements.txt).
 """
 
 import argparse
@@ -52,6 +60,7 @@ def main():
     ap.add_argument("--integrator")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--region", type=region, action="append", default=[])
+    ap.add_argument("--compare", type=Path, help="an earlier run's --out: a figure of both maps on its scale")
     ap.add_argument("--out", type=Path, default=Path("noise-map"))
     ap.add_argument("--prism", default=str(ROOT / "target/release/prism"))
     args = ap.parse_args()
@@ -89,10 +98,34 @@ def main():
 
     from PIL import Image
 
-    scale = np.percentile(noise, 99.5)
-    shown = np.sqrt(np.clip(noise / scale, 0.0, 1.0)) if scale > 0 else noise * 0.0
-    Image.fromarray((shown * 255).astype(np.uint8)).save(args.out / "noise.png")
+    Image.fromarray(shown(noise, np.percentile(noise, 99.5))).save(args.out / "noise.png")
     np.save(args.out / "noise.npy", noise)
+    if args.compare:
+        reference_png = args.reference.with_suffix(".png")
+        if not reference_png.exists():
+            sys.exit(f"--compare: {reference_png} is missing (prism render writes it beside the EXR)")
+        other = np.load(args.compare / "noise.npy")
+        if other.shape != noise.shape:
+            sys.exit(f"--compare: {args.compare} holds a {other.shape[1]}x{other.shape[0]} map, "
+                     f"this run {noise.shape[1]}x{noise.shape[0]}")
+        picture = np.asarray(Image.open(reference_png).convert("RGB"))
+        Image.fromarray(side_by_side(picture, other, noise)).save(args.out / "compare.png")
+
+
+def shown(noise, scale):
+    """A map as 8-bit grey: square-root scaled, `scale` and above white."""
+    if not scale > 0:
+        return np.zeros(noise.shape, np.uint8)
+    return (np.sqrt(np.clip(noise / scale, 0.0, 1.0)) * 255).astype(np.uint8)
+
+
+def side_by_side(picture, first, second, zoom=2):
+    """The picture (H×W×3, 8-bit) and two maps on the first's scale (its
+    99.5th percentile), left to right, each `zoom` times its size."""
+    scale = np.percentile(first, 99.5)
+    panels = [picture] + [np.repeat(shown(m, scale)[..., None], 3, axis=2) for m in (first, second)]
+    row = np.concatenate(panels, axis=1)
+    return row.repeat(zoom, axis=0).repeat(zoom, axis=1)
 
 
 if __name__ == "__main__":
