@@ -250,13 +250,8 @@ mod tests {
                 "the rebuild changes nothing here"
             );
         }
-        let mut s = 17u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 40) as f32) / (1u64 << 24) as f32
-        };
+        let mut random = crate::test_random::XorShift64(17);
+        let mut next = || random.next_f64() as f32;
         let mut hits_found = 0;
         for _ in 0..200 {
             let rays: Vec<Ray> = (0..16)
