@@ -44,6 +44,11 @@ def prism(apex_deg=60.0, side=1.0, length=3.0):
     return v, faces
 
 
+# A tumbler's profile, counter-clockwise in (r, y): outer wall r = 1, inner
+# wall r = 0.92, inner bottom y = 0.15, rim y = 2.5.
+TUMBLER = [(0.0, 0.0), (1.0, 0.0), (1.0, 2.5), (0.92, 2.5), (0.92, 0.15), (0.0, 0.15)]
+
+
 def lathe(profile, segments=96):
     """Revolves a closed (r, y) profile, listed counter-clockwise in the
     (r, y) half-plane, around the y axis. Returns vertices, faces of
@@ -191,9 +196,7 @@ def brilliant(crown_deg=34.5, pavilion_deg=40.75, table=0.53, girdle=0.03):
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
     write("prism.obj", *prism(), "equilateral prism, 60 degree apex, side 1, length 3")
-    # A tumbler: outer wall r = 1, inner wall r = 0.92, inner bottom y = 0.15, rim y = 2.5.
-    cup = [(0.0, 0.0), (1.0, 0.0), (1.0, 2.5), (0.92, 2.5), (0.92, 0.15), (0.0, 0.15)]
-    v, faces, normals = lathe(cup)
+    v, faces, normals = lathe(TUMBLER)
     write("glass.obj", v, faces, "tumbler: outer radius 1, wall 0.08, base 0.15, height 2.5", normals)
     # Water overlaps the glass wall (r 0.96 between 0.92 and 1) and base: the
     # glass's higher priority fills the overlap, so no surfaces coincide.

@@ -9,7 +9,7 @@ import gen_meshes
 from conftest import ROOT
 
 SEGMENTS = 96
-CUP = [(0.0, 0.0), (1.0, 0.0), (1.0, 2.5), (0.92, 2.5), (0.92, 0.15), (0.0, 0.15)]
+CUP = gen_meshes.TUMBLER
 
 
 def test_shipped_meshes_are_what_the_generator_writes(tmp_path, monkeypatch):
