@@ -67,6 +67,15 @@ def main():
     if args.seeds < 2:
         sys.exit("--seeds: at least 2 (a variance needs two)")
 
+    if args.compare:
+        # Before the renders: what the figure needs must be there.
+        reference_png = args.reference.with_suffix(".png")
+        if not reference_png.exists():
+            sys.exit(f"--compare: {reference_png} is missing (prism render writes it beside the EXR)")
+        if not (args.compare / "noise.npy").exists():
+            sys.exit(f"--compare: {args.compare / 'noise.npy'} is missing (an earlier run's --out holds it)")
+        other = np.load(args.compare / "noise.npy")
+
     args.out.mkdir(parents=True, exist_ok=True)
     images = []
     for seed in range(1, args.seeds + 1):
@@ -101,10 +110,6 @@ def main():
     Image.fromarray(shown(noise, np.percentile(noise, 99.5))).save(args.out / "noise.png")
     np.save(args.out / "noise.npy", noise)
     if args.compare:
-        reference_png = args.reference.with_suffix(".png")
-        if not reference_png.exists():
-            sys.exit(f"--compare: {reference_png} is missing (prism render writes it beside the EXR)")
-        other = np.load(args.compare / "noise.npy")
         if other.shape != noise.shape:
             sys.exit(f"--compare: {args.compare} holds a {other.shape[1]}x{other.shape[0]} map, "
                      f"this run {noise.shape[1]}x{noise.shape[0]}")
