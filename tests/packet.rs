@@ -4,8 +4,10 @@
 //! block by block within 5σ on the Cornell Box, the colorchecker, a
 //! diffuse scene with every kind of light the core meets (area, point,
 //! environment, an emitting sphere) and spheres, the metals (mirrors and
-//! rough), glTF's metallic-roughness layers and fluorescence; the same
-//! image for any thread count; and only the scenes it models go to it.
+//! rough), glTF's metallic-roughness layers and fluorescence, with paths
+//! reused between pixels (`reuse`) where the scene or the test asks; the
+//! same image for any thread count; and only the scenes it models go to
+//! it.
 
 use crate::common::{assert_blocks_agree, repo_scene, scene};
 use prism::film::Film;
@@ -160,6 +162,31 @@ fn metals_agree_with_one_path_at_a_time() {
         "max_depth = 8",
     );
     assert_agree(&loaded, "metals");
+}
+
+#[test]
+fn reused_paths_agree_with_one_path_at_a_time() {
+    // `reuse` on where the scene leaves it off (not every surface is
+    // diffuse): first surfaces and second vertices of metal, which the
+    // groups must not share, among diffuse ones, which they do.
+    let loaded = repo_scene(
+        "scenes/metals.toml",
+        "resolution = [64, 36]\nspp = 256",
+        "max_depth = 8\nreuse = true",
+    );
+    assert_agree(&loaded, "metals, paths reused");
+}
+
+#[test]
+fn reuse_is_on_where_every_surface_is_diffuse() {
+    let cornell = repo_scene("scenes/cornell-box.toml", "spp = 1", "max_depth = 16");
+    let metals = repo_scene("scenes/metals.toml", "spp = 1", "max_depth = 8");
+    let reuses = |loaded: &Loaded| match &loaded.settings.integrator {
+        Integrator::Path(tracer) => tracer.reuses_paths(&loaded.scene),
+        _ => false,
+    };
+    assert!(reuses(&cornell));
+    assert!(!reuses(&metals));
 }
 
 #[test]

@@ -196,7 +196,7 @@ fn every_integrator_refuses_the_keys_of_the_others() {
 fn valid_value(key: &str) -> &'static str {
     match key {
         "strategy" => "\"mis\"",
-        "split_dispersion" | "split_glass" | "look_ahead" => "true",
+        "split_dispersion" | "split_glass" | "look_ahead" | "reuse" => "true",
         _ => "1",
     }
 }

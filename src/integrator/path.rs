@@ -78,6 +78,10 @@ pub struct PathTracer {
     /// object: the light each meets first is counted exactly, and the path
     /// goes on along one lobe (`Gather::look_ahead`).
     pub look_ahead: bool,
+    /// In the packet core, the samples of a 2 × 2 block of pixels reuse
+    /// each other's paths from their first bounce on (`path_packet::reuse`);
+    /// None: where every surface of the scene is diffuse.
+    pub reuse: Option<bool>,
 }
 
 impl Default for PathTracer {
@@ -90,6 +94,7 @@ impl Default for PathTracer {
             split_dispersion: true,
             split_glass: true,
             look_ahead: false,
+            reuse: None,
         }
     }
 }

@@ -11,7 +11,9 @@
 //! the one-at-a-time walk's generality (the visitor, the IOR stack, free
 //! flights, dispersion), which such a scene pays for without using.
 //! Diffuse surfaces take a lean BSDF of their own ([`Diffuse`]); the
-//! others the general one. The estimator is the path tracer's
+//! others the general one. Where every surface is diffuse, the samples of
+//! each 2 × 2 block of pixels reuse each other's paths past their first
+//! bounce ([`reuse`], in the groups of [`groups`]). The estimator is the path tracer's
 //! (`path`): next-event estimation and BSDF sampling weighed by the power
 //! heuristic, the same Russian roulette, the same numbers of the sample's
 //! sequence for the same decisions. Images agree with the one-at-a-time
@@ -20,6 +22,8 @@
 //! image is the same for any thread count.
 
 mod diffuse_lanes;
+mod groups;
+mod reuse;
 mod surface;
 
 use std::ops::Range;
@@ -42,6 +46,8 @@ use crate::scene::{Scene, SurfaceHit};
 use crate::spectrum::memo::SpectrumMemo;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 use diffuse_lanes::{Bounced, DiffuseBounce, DiffuseBounces};
+use groups::{reuses, tile_samples, Grouped, PendingGroups};
+use reuse::{FirstBounce, Member, SecondVertex};
 use surface::{Diffuse, General, Surface};
 
 impl PathTracer {
@@ -49,6 +55,12 @@ impl PathTracer {
     /// packets (unless `RenderOptions::packets` says never).
     pub fn models_in_packets(&self, scene: &Scene) -> bool {
         models(self, scene)
+    }
+
+    /// Whether its packets reuse paths between the pixels of 2 × 2 blocks
+    /// (`reuse`).
+    pub fn reuses_paths(&self, scene: &Scene) -> bool {
+        reuses(self, scene)
     }
 }
 
@@ -102,6 +114,12 @@ struct Lane {
     unblocked: SampledSpectrum,
     counters: PathCounters,
     goes_on: bool,
+    /// The group of samples that share their first bounces (`reuse`), and
+    /// what this path leaves them: its first surface where it is diffuse,
+    /// and the point its bounce from there reached.
+    group: Option<u64>,
+    first: Option<FirstBounce>,
+    second: Option<SecondVertex>,
 }
 
 /// `tile::render_tile` for the path tracer on a scene it `models`: the
@@ -113,12 +131,10 @@ pub fn render_tile(
     pass_len: u32,
     indices: impl Fn(u32, u32) -> Range<u32>,
 ) -> FilmTile {
-    let (x0, y0, w, h) = rect;
     let scene = job.scene;
     let mut tile = job.new_tile(rect, pass_len);
-    let mut samples = (y0..y0 + h)
-        .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
-        .flat_map(|(x, y)| indices(x, y).map(move |i| (x, y, i)));
+    let mut samples = tile_samples(reuses(tracer, scene), rect, &indices);
+    let mut pending = PendingGroups::default();
     let mut in_order = InOrder::default();
     let width = packet_width();
     let mut lanes: Vec<Lane> = Vec::with_capacity(width);
@@ -132,10 +148,16 @@ pub fn render_tile(
     let mut diffuse = DiffuseBounces::default();
     loop {
         while lanes.len() < width {
-            let Some(sample) = samples.next() else {
+            let Some(Grouped { sample, group }) = samples.next() else {
                 break;
             };
-            lanes.push(Lane::start(tracer, job, sample, in_order.start()));
+            let mut lane = Lane::start(tracer, job, sample, in_order.start());
+            if let Some(group) = group {
+                lane.wl = pending.start(group, lane.order, lane.wl);
+                lane.seen = lane.wl.lambda;
+                lane.group = Some(group.0);
+            }
+            lanes.push(lane);
         }
         if lanes.is_empty() {
             break;
@@ -189,11 +211,17 @@ pub fn render_tile(
         // so go from the back).
         for k in (0..lanes.len()).rev() {
             if !lanes[k].goes_on {
-                let lane = lanes.swap_remove(k);
-                let mut wl = lane.wl;
-                wl.lambda = lane.seen;
-                let measured = PixelSample { l: lane.l, wl };
-                in_order.end(lane.order, lane.sample, measured, &lane.counters);
+                let member = lanes.swap_remove(k).ended();
+                let Some(seq) = member.group else {
+                    member.end(&mut in_order);
+                    continue;
+                };
+                let occluded = |rays: &[Ray], blocked: &mut [bool]| {
+                    scene.occluded_packet(rays, blocked);
+                };
+                for m in pending.end(seq, member, occluded) {
+                    m.end(&mut in_order);
+                }
             }
         }
         in_order.commit(job, &mut tile);
@@ -202,7 +230,35 @@ pub fn render_tile(
     tile
 }
 
+impl Member {
+    /// Adds the sample to the tile's in `in_order`.
+    fn end(&self, in_order: &mut InOrder) {
+        let measured = PixelSample {
+            l: self.l,
+            wl: self.wl,
+        };
+        in_order.end(self.order, self.sample, measured, &self.counters);
+    }
+}
+
 impl Lane {
+    /// What the film and the lane's group take of its ended path (the
+    /// film gets the wavelengths the camera saw).
+    fn ended(self) -> Member {
+        let mut wl = self.wl;
+        wl.lambda = self.seen;
+        Member {
+            order: self.order,
+            sample: self.sample,
+            group: self.group,
+            l: self.l,
+            wl,
+            counters: self.counters,
+            first: self.first,
+            second: self.second,
+        }
+    }
+
     /// Sample `index` of pixel (`x`, `y`), its camera ray drawn.
     fn start(
         tracer: &PathTracer,
@@ -230,6 +286,9 @@ impl Lane {
             unblocked: SampledSpectrum::ZERO,
             counters: PathCounters::default(),
             goes_on: true,
+            group: None,
+            first: None,
+            second: None,
         }
     }
 
@@ -247,13 +306,22 @@ impl Lane {
         if let Some(i) = hit.light {
             self.add_emission(tracer, scene, hit, i);
         }
+        let material = &scene.materials[hit.material as usize];
+        if self.depth == 1 && self.first.is_some() {
+            let diffuse = matches!(material, Material::Diffuse { .. });
+            self.second = Some(SecondVertex::new(hit, diffuse, self.l, self.beta));
+        }
         if self.depth == tracer.max_depth {
             return false;
         }
         self.depth += 1;
         let wo = -self.ray.dir;
-        match &scene.materials[hit.material as usize] {
+        match material {
             Material::Diffuse { reflectance } => {
+                if self.depth == 1 && self.group.is_some() {
+                    let f = Diffuse::f(reflectance, hit, &self.wl, &mut self.spectra);
+                    self.first = Some(FirstBounce::new(hit, wo, f));
+                }
                 // The light sample's and the bounce's numbers, and what they
                 // decide alone, first: they overlap with the surface's work.
                 let light = LightDrawn::new(scene, self.sampler.next_4d());

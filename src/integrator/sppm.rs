@@ -333,6 +333,7 @@ impl Sppm {
             split_dispersion: false,
             split_glass: false,
             look_ahead: false,
+            reuse: Some(false),
         };
         // At the visible point the path ends: light sampling alone finds
         // the direct light (no BSDF sample follows to share it with).

@@ -22,6 +22,9 @@ pub struct PathParams {
     /// Trace ahead the lobes of smooth glass that leave every object, in
     /// camera paths through mirrors and smooth glass alone (default false).
     pub look_ahead: Option<bool>,
+    /// In the packet core, reuse the paths of a 2 × 2 block of pixels from
+    /// their first bounce on (default: where every surface is diffuse).
+    pub reuse: Option<bool>,
 }
 
 impl Configure for PathTracer {
@@ -38,6 +41,7 @@ impl Configure for PathTracer {
             split_dispersion: own.split_dispersion.unwrap_or(d.split_dispersion),
             split_glass: own.split_glass.unwrap_or(d.split_glass),
             look_ahead: own.look_ahead.unwrap_or(d.look_ahead),
+            reuse: own.reuse.or(d.reuse),
         })
     }
 }
