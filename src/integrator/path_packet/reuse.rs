@@ -21,11 +21,11 @@
 //! second vertices a pixel takes from a partner are that partner's
 //! stratified sequence (blocks that shifted each sample took them from
 //! different partners, and their error fell less: Cornell Box, 4–64
-//! samples, relMSE 10–20% higher). The wavelengths are the block's first
+//! samples, relMSE 7–18% higher). The wavelengths are the block's first
 //! pixel's, also a stratified sequence. (Each pixel keeping its own, with
-//! what it took from others added at theirs, cost 10% more CPU for 4–7%
-//! more error.) The price is noise correlated over each block: coarser
-//! grain, in blocks of 2 × 2, at low sample counts.
+//! what it took from others added at theirs, cost about 15% more CPU for
+//! 2–7% more error.) The price is noise correlated over each block:
+//! coarser grain, in blocks of 2 × 2, at low sample counts.
 
 use glam::{Vec3, Vec4};
 
@@ -67,6 +67,20 @@ impl FirstBounce {
             wo,
             f,
         }
+    }
+
+    /// The geometry term from here to `x2`: |cos θ| at both ends over the
+    /// squared distance, 0 where the bounce does not reflect that way (or
+    /// the points coincide). A first bounce's density of reaching `x2`
+    /// (area measure, visible) is this over π.
+    fn geometry_to(&self, x2: &SecondVertex) -> f32 {
+        let to = x2.p - self.p;
+        let d2 = to.length_squared();
+        if !(d2 > 0.0) {
+            return 0.0;
+        }
+        let dir = to / d2.sqrt();
+        self.cos_towards(dir) * x2.ng.dot(dir).abs() / d2
     }
 
     /// |cos θ| towards `dir` (unit) where the diffuse bounce reflects to
@@ -215,17 +229,10 @@ pub(super) fn share(members: &mut [Member], occluded: impl FnOnce(&[Ray], &mut [
     // Each shared vertex's density over the group's first bounces (area
     // measure, visibility included).
     let density = |m: &Member, x2: &SecondVertex, seen: bool| -> f32 {
-        let Some(x1) = m.first else { return 0.0 };
-        if !seen {
-            return 0.0;
+        match m.first {
+            Some(x1) if seen => x1.geometry_to(x2) * std::f32::consts::FRAC_1_PI,
+            _ => 0.0,
         }
-        let to = x2.p - x1.p;
-        let d2 = to.length_squared();
-        if !(d2 > 0.0) {
-            return 0.0;
-        }
-        let dir = to / d2.sqrt();
-        x1.cos_towards(dir) * std::f32::consts::FRAC_1_PI * x2.ng.dot(dir).abs() / d2
     };
     let mut sums = [0.0f32; GROUP];
     for (k, s) in shared.iter().enumerate() {
@@ -249,11 +256,7 @@ pub(super) fn share(members: &mut [Member], occluded: impl FnOnce(&[Ray], &mut [
             if !visible[i][k] || !(sums[k] > 0.0) {
                 continue;
             }
-            let to = x2.p - x1.p;
-            let d2 = to.length_squared();
-            let dir = to / d2.sqrt();
-            let g = x1.cos_towards(dir) * x2.ng.dot(dir).abs() / d2;
-            l += x1.f * *leaving * (g / sums[k]);
+            l += x1.f * *leaving * (x1.geometry_to(x2) / sums[k]);
         }
         members[i].l = l;
     }
