@@ -9,13 +9,19 @@
 //! seed, so sets are independent of each other. The first `SOBOL_SETS`
 //! sets of a path (camera, then light and BSDF sets of the first two
 //! bounces) are Sobol; deeper ones, beyond 2¹⁶ samples per pixel, and
-//! `next_f32`/`next_2d` come from PCG32.
+//! `next_f32`/`next_2d` come from PCG32. Where the pixels of a 2 × 2
+//! block share their paths past the first surface, those paths' sets are
+//! drawn from one sequence for the block ([`Sampler::for_block_sample`]).
 
 /// Largest sample index the Sobol points cover (a limit of the crate).
 const SOBOL_SAMPLES: u64 = 1 << 16;
 /// 4D sets per path taken from Sobol; later ones (deep bounces, where
 /// stratification buys little) come from PCG32, which is cheaper.
 const SOBOL_SETS: u32 = 5;
+/// The first set a block's samples share ([`Sampler::for_block_sample`]):
+/// the first surface's bounce, then the second vertex's light sample and
+/// bounce.
+const BLOCK_SETS: u32 = 2;
 
 /// PCG32 (O'Neill 2014, XSH-RR output) plus the sample's Sobol state.
 #[derive(Clone, Debug)]
@@ -26,6 +32,10 @@ pub struct Sampler {
     sobol_index: u32,
     /// Per (seed, pixel) scramble seed.
     sobol_seed: u64,
+    /// The sets from `BLOCK_SETS` on: their Sobol index in the 2 × 2
+    /// block's sequence and its scramble seed (`u32::MAX`: the pixel's own).
+    block_index: u32,
+    block_seed: u64,
     /// 4D sets taken so far.
     set: u32,
     /// The Sobol sets, drawn when the sample starts (a branch draws those
@@ -48,6 +58,26 @@ fn mix(mut z: u64) -> u64 {
 impl Sampler {
     /// The stream of one camera sample.
     pub fn for_sample(seed: u64, x: u32, y: u32, sample_index: u64) -> Self {
+        Self::start(seed, (x, y), sample_index, false)
+    }
+
+    /// Sample `sample_index` of pixel (`x`, `y`) where the samples of the
+    /// same index in its 2 × 2 block of pixels reuse each other's paths
+    /// past the first surface (the path tracer's `reuse`). The sets from
+    /// the first surface's bounce on are the block's: Sobol index
+    /// `4 · sample_index + slot` of a sequence shuffled and scrambled per
+    /// block, the slot the pixel's place in the block. So the four
+    /// bounces the block's pixels share at each index are an aligned,
+    /// stratified set of four, and all of them together one
+    /// low-discrepancy set (a pixel's own are no longer stratified among
+    /// themselves; they count where its partners cannot share). The
+    /// camera's set and the first light sample stay the pixel's own. Each
+    /// number is still uniform, so every pixel's estimate stays unbiased.
+    pub fn for_block_sample(seed: u64, x: u32, y: u32, sample_index: u64) -> Self {
+        Self::start(seed, (x, y), sample_index, true)
+    }
+
+    fn start(seed: u64, (x, y): (u32, u32), sample_index: u64, in_block: bool) -> Self {
         let pixel = ((y as u64) << 32) | x as u64;
         let state = mix(seed ^ mix(pixel ^ mix(sample_index)));
         let stream = mix(state ^ 0x9e37_79b9_7f4a_7c15);
@@ -55,6 +85,13 @@ impl Sampler {
         if sample_index < SOBOL_SAMPLES {
             s.sobol_index = sample_index as u32;
             s.sobol_seed = mix(seed ^ mix(pixel ^ 0x50b0_1000));
+            let slot = ((x & 1) + 2 * (y & 1)) as u64;
+            let index = 4 * sample_index + slot;
+            if in_block && index < SOBOL_SAMPLES {
+                s.block_index = index as u32;
+                let block = ((y as u64 / 2) << 32) | (x as u64 / 2);
+                s.block_seed = mix(seed ^ mix(block ^ 0xb10c_5e75));
+            }
             s.draw_points();
         }
         s
@@ -63,8 +100,13 @@ impl Sampler {
     /// The Sobol sets from `set` on.
     fn draw_points(&mut self) {
         for k in self.set..SOBOL_SETS {
-            let seed = mix(self.sobol_seed ^ k as u64) as u32;
-            self.points[k as usize] = sobol_4d(self.sobol_index, seed);
+            let (index, seed) = if k >= BLOCK_SETS && self.block_index != u32::MAX {
+                (self.block_index, self.block_seed)
+            } else {
+                (self.sobol_index, self.sobol_seed)
+            };
+            let seed = mix(seed ^ k as u64) as u32;
+            self.points[k as usize] = sobol_4d(index, seed);
         }
     }
 
@@ -75,6 +117,8 @@ impl Sampler {
             inc: (stream << 1) | 1,
             sobol_index: u32::MAX,
             sobol_seed: 0,
+            block_index: u32::MAX,
+            block_seed: 0,
             set: 0,
             points: [[0.0; 4]; SOBOL_SETS as usize],
         };
@@ -111,6 +155,8 @@ impl Sampler {
         s.state = mix(self.state ^ mix(0xb5a2_c4e1 ^ k as u64));
         s.inc = (mix(self.inc ^ k as u64) << 1) | 1;
         s.next_u32();
+        // A branch's later sets are its sample's own.
+        s.block_index = u32::MAX;
         if self.sobol_index != u32::MAX {
             let index = self.sobol_index as u64 * n as u64 + k as u64;
             s.sobol_index = if index < SOBOL_SAMPLES {
@@ -241,6 +287,47 @@ mod tests {
         let far = Sampler::for_sample(3, 7, 9, 1 << 15);
         let p = far.branch(1, 4).next_4d();
         assert!(p.iter().all(|v| (0.0..1.0).contains(v)));
+    }
+
+    /// A 2 × 2 block's samples: from the first surface's bounce on, the
+    /// four of each index put one point in each quadrant and the block's
+    /// 64 points of 16 indices one in each cell of an 8 × 8 grid; the
+    /// camera's and the first light sample's sets are the pixel's own.
+    #[test]
+    fn a_blocks_samples_share_one_stratified_set() {
+        let (seed, bx, by) = (5, 6, 10);
+        let pixels = [(bx, by), (bx + 1, by), (bx, by + 1), (bx + 1, by + 1)];
+        for set in 2..5 {
+            let mut cells = [0u32; 64];
+            for i in 0..16 {
+                let mut quadrants = [0u32; 4];
+                for &(x, y) in &pixels {
+                    let mut s = Sampler::for_block_sample(seed, x, y, i);
+                    let mut plain = Sampler::for_sample(seed, x, y, i);
+                    for _ in 0..2 {
+                        assert_eq!(s.next_4d(), plain.next_4d(), "the pixel's own sets");
+                    }
+                    let mut p = s.next_4d();
+                    for _ in 2..set {
+                        p = s.next_4d();
+                    }
+                    assert!(p.iter().all(|v| (0.0..1.0).contains(v)));
+                    quadrants[(p[0] * 2.0) as usize * 2 + (p[1] * 2.0) as usize] += 1;
+                    cells[(p[0] * 8.0) as usize * 8 + (p[1] * 8.0) as usize] += 1;
+                }
+                assert_eq!(quadrants, [1; 4], "set {set}, index {i}");
+            }
+            assert!(cells.iter().all(|&c| c == 1), "set {set}: {cells:?}");
+        }
+        // Another block draws another sequence.
+        let skip = |mut s: Sampler| {
+            s.next_4d();
+            s.next_4d();
+            s.next_4d()
+        };
+        let a = skip(Sampler::for_block_sample(seed, bx, by, 0));
+        let b = skip(Sampler::for_block_sample(seed, bx + 2, by, 0));
+        assert_ne!(a, b);
     }
 
     #[test]

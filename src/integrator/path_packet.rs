@@ -151,7 +151,7 @@ pub fn render_tile(
             let Some(Grouped { sample, group }) = samples.next() else {
                 break;
             };
-            let mut lane = Lane::start(tracer, job, sample, in_order.start());
+            let mut lane = Lane::start(tracer, job, sample, group.is_some(), in_order.start());
             if let Some(group) = group {
                 lane.wl = pending.start(group, lane.order, lane.wl);
                 lane.seen = lane.wl.lambda;
@@ -259,14 +259,21 @@ impl Lane {
         }
     }
 
-    /// Sample `index` of pixel (`x`, `y`), its camera ray drawn.
+    /// Sample `index` of pixel (`x`, `y`), its camera ray drawn; its
+    /// numbers past the first surface its block's where it is `grouped`.
     fn start(
         tracer: &PathTracer,
         job: &RenderJob,
         (x, y, index): (u32, u32, u32),
+        grouped: bool,
         order: u64,
     ) -> Lane {
-        let mut sampler = Sampler::for_sample(job.options.seed, x, y, index as u64);
+        let seed = job.options.seed;
+        let mut sampler = if grouped {
+            Sampler::for_block_sample(seed, x, y, index as u64)
+        } else {
+            Sampler::for_sample(seed, x, y, index as u64)
+        };
         let (ray, wl) = tracer.camera_sample(job.scene, (x, y), &mut sampler);
         Lane {
             order,

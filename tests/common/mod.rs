@@ -178,17 +178,57 @@ pub fn z_score(a: (f64, f64), b: (f64, f64)) -> f64 {
     (a.0 - b.0).abs() / (a.1 + b.1).sqrt()
 }
 
+/// Mean luminance over a pixel rectangle and a bound on the variance of
+/// that mean for a render whose pixels share paths within aligned 2 × 2
+/// blocks (the path tracer's `reuse`), so that a block's pixels are
+/// correlated: a block's sum varies by at most the square of the sum of
+/// its pixels' standard deviations (Cauchy–Schwarz), up to four times
+/// what independent pixels would.
+pub fn region_mean_reused(film: &Film, x0: u32, y0: u32, x1: u32, y1: u32) -> (f64, f64) {
+    let (mut sum, mut var) = (0.0, 0.0);
+    let n = ((x1 - x0) * (y1 - y0)) as f64;
+    for by in y0 / 2..y1.div_ceil(2) {
+        for bx in x0 / 2..x1.div_ceil(2) {
+            let mut sd = 0.0;
+            for (x, y) in
+                [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| (2 * bx + dx, 2 * by + dy))
+            {
+                if (x0..x1).contains(&x) && (y0..y1).contains(&y) {
+                    let (m, v) = film.luminance_and_variance(x, y);
+                    sum += m;
+                    sd += v.sqrt();
+                }
+            }
+            var += sd * sd;
+        }
+    }
+    (sum / n, var / (n * n))
+}
+
 /// Asserts that two renders of one scene agree block by block (8 × 8
 /// pixels) within `z_max` standard errors of the difference. A block both
 /// find exactly the same (black, where nothing is seen) agrees.
 pub fn assert_blocks_agree(a: &Film, b: &Film, z_max: f64, what: &str) {
+    blocks_agree(a, b, z_max, what, region_mean);
+}
+
+/// `assert_blocks_agree` where either render may share paths between
+/// neighbouring pixels (`region_mean_reused`'s error bars).
+pub fn assert_blocks_agree_reused(a: &Film, b: &Film, z_max: f64, what: &str) {
+    blocks_agree(a, b, z_max, what, region_mean_reused);
+}
+
+fn blocks_agree(
+    a: &Film,
+    b: &Film,
+    z_max: f64,
+    what: &str,
+    region: fn(&Film, u32, u32, u32, u32) -> (f64, f64),
+) {
     for y0 in (0..a.height).step_by(8) {
         for x0 in (0..a.width).step_by(8) {
             let (x1, y1) = ((x0 + 8).min(a.width), (y0 + 8).min(a.height));
-            let (ra, rb) = (
-                region_mean(a, x0, y0, x1, y1),
-                region_mean(b, x0, y0, x1, y1),
-            );
+            let (ra, rb) = (region(a, x0, y0, x1, y1), region(b, x0, y0, x1, y1));
             let z = if ra.0 == rb.0 { 0.0 } else { z_score(ra, rb) };
             assert!(
                 z < z_max,

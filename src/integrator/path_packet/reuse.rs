@@ -179,12 +179,19 @@ pub(super) const GROUP: usize = 4;
 /// `occluded` (whether each is blocked).
 pub(super) fn share(members: &mut [Member], occluded: impl FnOnce(&[Ray], &mut [bool])) {
     debug_assert!(members.len() <= GROUP);
-    // The second vertices others may use, and the light leaving each.
+    // The second vertices others may use, and the light leaving each at
+    // the wavelengths its path still carried there. A first surface that
+    // reflects none of one wavelength (a measured reflectance outside its
+    // table) ends only that one: the others are still shared (dropping
+    // the whole vertex left a quarter of the Cornell Box's groups, those
+    // with a wavelength beyond 700 nm, unshared).
     let mut shared: [Option<(SecondVertex, SampledSpectrum)>; GROUP] = [None; GROUP];
     for (k, m) in members.iter().enumerate() {
         if let (Some(_), Some(x2)) = (m.first, m.second) {
-            if x2.diffuse && x2.beta.cmpgt(Vec4::ZERO).all() {
-                shared[k] = Some((x2, (m.l - x2.l_before) / x2.beta));
+            let carried = x2.beta.cmpgt(Vec4::ZERO);
+            if x2.diffuse && carried.any() {
+                let leaving = (m.l - x2.l_before) / x2.beta;
+                shared[k] = Some((x2, Vec4::select(carried, leaving, Vec4::ZERO)));
             }
         }
     }
@@ -227,14 +234,18 @@ pub(super) fn share(members: &mut [Member], occluded: impl FnOnce(&[Ray], &mut [
         }
     }
     // Each shared vertex's density over the group's first bounces (area
-    // measure, visibility included).
-    let density = |m: &Member, x2: &SecondVertex, seen: bool| -> f32 {
+    // measure, visibility included), wavelength by wavelength: a first
+    // bounce that reflects none of a wavelength is no technique for it.
+    let density = |m: &Member, x2: &SecondVertex, seen: bool| -> SampledSpectrum {
         match m.first {
-            Some(x1) if seen => x1.geometry_to(x2) * std::f32::consts::FRAC_1_PI,
-            _ => 0.0,
+            Some(x1) if seen => {
+                let p = Vec4::splat(x1.geometry_to(x2) * std::f32::consts::FRAC_1_PI);
+                Vec4::select(x1.f.cmpgt(Vec4::ZERO), p, Vec4::ZERO)
+            }
+            _ => Vec4::ZERO,
         }
     };
-    let mut sums = [0.0f32; GROUP];
+    let mut sums = [Vec4::ZERO; GROUP];
     for (k, s) in shared.iter().enumerate() {
         let Some((x2, _)) = s else { continue };
         sums[k] = members
@@ -253,10 +264,11 @@ pub(super) fn share(members: &mut [Member], occluded: impl FnOnce(&[Ray], &mut [
         let mut l = own;
         for (k, s) in shared.iter().enumerate() {
             let Some((x2, leaving)) = s else { continue };
-            if !visible[i][k] || !(sums[k] > 0.0) {
+            if !visible[i][k] {
                 continue;
             }
-            l += x1.f * *leaving * (x1.geometry_to(x2) / sums[k]);
+            let weight = Vec4::splat(x1.geometry_to(x2)) / sums[k];
+            l += x1.f * *leaving * Vec4::select(sums[k].cmpgt(Vec4::ZERO), weight, Vec4::ZERO);
         }
         members[i].l = l;
     }
@@ -397,5 +409,36 @@ mod tests {
                 .max_element()
                 < 1e-5
         );
+    }
+
+    /// A first surface that reflects none of one wavelength ends only that
+    /// one: the path's vertex is shared at the others, and at that one the
+    /// paths that carried it share theirs among themselves.
+    #[test]
+    fn a_wavelength_one_path_lost_is_shared_by_the_others() {
+        let x1 = Vec3::new(0.1, 0.0, 0.2);
+        let mut members = [
+            member(x1, Vec3::new(-1.0, 0.5, 2.0), 0.1, 0.4),
+            member(x1, Vec3::new(0.5, 2.0, 2.0), 0.3, 1.6),
+            member(x1, Vec3::new(1.5, 1.0, 2.0), 0.0, 0.1),
+        ];
+        // The first path's surface reflects nothing at the last wavelength:
+        // it carried nothing there past its first bounce.
+        let lost = Vec4::new(1.0, 1.0, 1.0, 0.0);
+        let m0 = &mut members[0];
+        m0.l = Vec4::splat(0.1) + Vec4::splat(0.4) * lost;
+        m0.first.as_mut().unwrap().f *= lost;
+        m0.second.as_mut().unwrap().beta *= lost;
+        share(&mut members, open);
+        let all = (0.4 + 1.6 + 0.1) / 3.0;
+        let carried = (1.6 + 0.1) / 2.0;
+        let want = [
+            Vec4::new(0.1 + all, 0.1 + all, 0.1 + all, 0.1),
+            Vec4::new(0.3 + all, 0.3 + all, 0.3 + all, 0.3 + carried),
+            Vec4::new(all, all, all, carried),
+        ];
+        for (m, w) in members.iter().zip(want) {
+            assert!((m.l - w).abs().max_element() < 1e-5, "{} against {w}", m.l);
+        }
     }
 }
