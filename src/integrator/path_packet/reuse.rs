@@ -184,7 +184,7 @@ pub(super) fn share(members: &mut [Member], occluded: impl FnOnce(&[Ray], &mut [
     // reflects none of one wavelength (a measured reflectance outside its
     // table) ends only that one: the others are still shared (dropping
     // the whole vertex left a quarter of the Cornell Box's groups, those
-    // with a wavelength beyond 700 nm, unshared).
+    // with a wavelength outside its tables' 400–700 nm, unshared).
     let mut shared: [Option<(SecondVertex, SampledSpectrum)>; GROUP] = [None; GROUP];
     for (k, m) in members.iter().enumerate() {
         if let (Some(_), Some(x2)) = (m.first, m.second) {
