@@ -159,9 +159,7 @@ fn neighbours_mean(values: &[f64], w: usize, h: usize, (x0, y0): (u32, u32)) -> 
         .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
         .map(|(x, y)| {
             let (window, in_window) = sum((x - r, y - r), (x + r + 1, y + r + 1));
-            // The block's first pixel, in the region's coordinates.
-            let bx = x - (x + x0 as i64) % 2;
-            let by = y - (y + y0 as i64) % 2;
+            let (bx, by) = (block_start(x, x0), block_start(y, y0));
             let (block, in_block) = sum((bx, by), (bx + 2, by + 2));
             let count = in_window - in_block;
             if count > 0.0 {
@@ -180,17 +178,26 @@ fn neighbours_mean(values: &[f64], w: usize, h: usize, (x0, y0): (u32, u32)) -> 
 /// counts pixel by pixel they came apart, and adaptive sampling raised the
 /// Cornell Box's relMSE × CPU 8–13% at 16 and 64 samples.
 fn block_means(values: &[f64], w: usize, h: usize, (x0, y0): (u32, u32)) -> Vec<f64> {
-    let first = |i: usize, origin: u32| i - (i + origin as usize) % 2;
-    (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
+    (0..h as i64)
+        .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
         .map(|(x, y)| {
-            let (bx, by) = (first(x, x0), first(y, y0));
-            let block: Vec<f64> = (by..(by + 2).min(h))
-                .flat_map(|y| (bx..(bx + 2).min(w)).map(move |x| values[y * w + x]))
-                .collect();
-            block.iter().sum::<f64>() / block.len() as f64
+            let (bx, by) = (block_start(x, x0).max(0), block_start(y, y0).max(0));
+            let block = (by..(by + 2).min(h as i64))
+                .flat_map(|y| (bx..(bx + 2).min(w as i64)).map(move |x| (x, y)));
+            let (sum, n) = block.fold((0.0, 0.0), |(s, n), (x, y)| {
+                (s + values[y as usize * w + x as usize], n + 1.0)
+            });
+            sum / n
         })
         .collect()
+}
+
+/// The first pixel of the 2 × 2 block of the image holding the region's
+/// pixel `i` (along one axis; `origin`: the image's pixel at the region's
+/// first), in the region's coordinates (−1 where the region starts at the
+/// block's second pixel).
+fn block_start(i: i64, origin: u32) -> i64 {
+    i - (i + origin as i64) % 2
 }
 
 /// What a render asks for that adaptive sampling would spoil: the reason a

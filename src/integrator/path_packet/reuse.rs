@@ -323,15 +323,20 @@ mod tests {
         }
     }
 
+    /// The member's light is `want`, to rounding.
+    fn assert_light(m: &Member, want: SampledSpectrum) {
+        assert!(
+            (m.l - want).abs().max_element() < 1e-5,
+            "{} against {want}",
+            m.l
+        );
+    }
+
     #[test]
     fn a_path_alone_keeps_its_light() {
         let mut members = [member(Vec3::ZERO, Vec3::new(0.3, 1.0, 2.0), 0.2, 0.7)];
         share(&mut members, open);
-        let l = members[0].l;
-        assert!(
-            (l - SampledSpectrum::splat(0.9)).abs().max_element() < 1e-5,
-            "{l}"
-        );
+        assert_light(&members[0], SampledSpectrum::splat(0.9));
     }
 
     /// Paths from one point share their second vertices evenly: each
@@ -349,12 +354,7 @@ mod tests {
         share(&mut members, open);
         let mean_after = (0.4 + 1.6 + 0.1) / 3.0;
         for (m, before) in members.iter().zip([0.1, 0.3, 0.0]) {
-            let want = SampledSpectrum::splat(before + mean_after);
-            assert!(
-                (m.l - want).abs().max_element() < 1e-5,
-                "{} against {want}",
-                m.l
-            );
+            assert_light(m, SampledSpectrum::splat(before + mean_after));
             // Two shadow rays each, to the others' second vertices.
             assert_eq!(m.counters.rays, 2);
         }
@@ -362,12 +362,7 @@ mod tests {
         let mut members = unshared;
         share(&mut members, |_, blocked| blocked.fill(true));
         for (m, own) in members.iter().zip([0.5, 1.9, 0.1]) {
-            let want = SampledSpectrum::splat(own);
-            assert!(
-                (m.l - want).abs().max_element() < 1e-5,
-                "{} against {want}",
-                m.l
-            );
+            assert_light(m, SampledSpectrum::splat(own));
         }
     }
 
@@ -384,11 +379,7 @@ mod tests {
         // (two techniques could have found that vertex).
         let want = [0.1 + 0.4 + 0.5 * 1.6, 0.3 + 0.5 * 1.6];
         for (m, w) in members.iter().zip(want) {
-            assert!(
-                (m.l - SampledSpectrum::splat(w)).abs().max_element() < 1e-5,
-                "{} against {w}",
-                m.l
-            );
+            assert_light(m, SampledSpectrum::splat(w));
         }
         // From behind the wall (z > 2) the wall's point is not shared.
         let behind = Vec3::new(0.0, 0.0, 2.5);
@@ -397,18 +388,8 @@ mod tests {
             member(behind, Vec3::new(0.5, 2.0, 2.0), 0.3, 1.6),
         ];
         share(&mut members, open);
-        assert!(
-            (members[0].l - SampledSpectrum::splat(0.5))
-                .abs()
-                .max_element()
-                < 1e-5
-        );
-        assert!(
-            (members[1].l - SampledSpectrum::splat(1.9))
-                .abs()
-                .max_element()
-                < 1e-5
-        );
+        assert_light(&members[0], SampledSpectrum::splat(0.5));
+        assert_light(&members[1], SampledSpectrum::splat(1.9));
     }
 
     /// A first surface that reflects none of one wavelength ends only that
@@ -438,7 +419,7 @@ mod tests {
             Vec4::new(all, all, all, carried),
         ];
         for (m, w) in members.iter().zip(want) {
-            assert!((m.l - w).abs().max_element() < 1e-5, "{} against {w}", m.l);
+            assert_light(m, w);
         }
     }
 }
